@@ -1,0 +1,3 @@
+from fabhal.cli import main
+
+raise SystemExit(main())

@@ -1,0 +1,136 @@
+"""The `fabhal` command: composes the stages in fabhal.api, renders what they return.
+
+Exit codes: 0 clean, 1 the program has errors (or, for `solve`, cannot be
+built), 2 usage, I/O or internal error.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import traceback
+from collections.abc import Sequence
+from pathlib import Path
+from typing import NoReturn
+
+from fabhal import __version__
+from fabhal.diagnostics import Diagnostic, render_all, to_json
+from fabhal.source import SourceFile
+
+EXIT_OK, EXIT_DIAGNOSTICS, EXIT_USAGE = 0, 1, 2
+ISSUES_URL = "the FabHaL issue tracker"
+
+MAIN_EPILOG = """\
+examples:
+  fabhal check programs/mug_hanger.fhl       validate a program, report every problem
+  fabhal check --json programs/*.fhl         the same as a JSON array, for tools
+  fabhal check --help                        more about one command
+
+A program (.fhl) says what the hack hangs from (environment), what it holds
+(target) and which connector of which part touches which (connect); the
+solver works out where everything ends up. See docs/language.md.
+"""
+
+CHECK_EPILOG = """\
+examples:
+  fabhal check programs/mug_hanger.fhl
+  fabhal check programs/*.fhl                check several files at once
+  fabhal check --json my_hack.fhl | jq .     machine-readable diagnostics
+
+exit status: 0 no errors (warnings allowed), 1 errors found, 2 a file could
+not be read (or an internal error).
+Each diagnostic reads `file:line:col: error[CODE]: message` and ends with a
+`help:` line; docs/errors.md explains every CODE with an example and a fix.
+"""
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message: str) -> NoReturn:
+        self.print_usage(sys.stderr)
+        self.exit(EXIT_USAGE, f"fabhal: error: {message}\n(run `{self.prog} --help` for examples)\n")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    formatter = argparse.RawDescriptionHelpFormatter
+    parser = _Parser(
+        prog="fabhal",
+        description="FabHaL: design fixture hacks from everyday objects.",
+        epilog=MAIN_EPILOG,
+        formatter_class=formatter,
+    )
+    parser.add_argument("--version", action="version", version=f"fabhal {__version__}")
+    parser.add_argument("--debug", action="store_true", help="show Python tracebacks of internal errors")
+    commands = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
+
+    check = commands.add_parser(
+        "check",
+        help="validate programs without solving them",
+        description="Parse and check .fhl programs; report every problem found, sorted by position.",
+        epilog=CHECK_EPILOG,
+        formatter_class=formatter,
+    )
+    check.add_argument("files", nargs="+", type=Path, metavar="FILE", help=".fhl program(s) to check")
+    check.add_argument("--json", action="store_true", help="print diagnostics as a JSON array on stdout")
+    check.set_defaults(run=run_check)
+    return parser
+
+
+def _print_diagnostics(diagnostics: Sequence[Diagnostic], sources: dict[str, SourceFile]) -> None:
+    if diagnostics:
+        print(render_all(diagnostics, sources), file=sys.stderr)
+
+
+def run_check(args: argparse.Namespace) -> int:
+    from fabhal import api
+    from fabhal.load import InputError
+
+    status = EXIT_OK
+    collected: list[dict[str, object]] = []
+    for path in args.files:
+        try:
+            result = api.check(path)
+        except InputError as exc:
+            collected.extend(to_json(d) for d in exc.diagnostics)
+            if not args.json:
+                _print_diagnostics(exc.diagnostics, {})
+            status = EXIT_USAGE
+            continue
+        collected.extend(to_json(d) for d in result.diagnostics)
+        if not args.json:
+            _print_diagnostics(result.diagnostics, result.sources)
+            if result.ok:
+                print(f"{path}: ok" + _warning_count(result.diagnostics))
+        if not result.ok:
+            status = max(status, EXIT_DIAGNOSTICS)
+    if args.json:
+        print(json.dumps(collected, indent=2))
+    return status
+
+
+def _warning_count(diagnostics: Sequence[Diagnostic]) -> str:
+    warnings = sum(1 for d in diagnostics if not d.is_error)
+    return f" ({warnings} warning{'s' if warnings != 1 else ''})" if warnings else ""
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    if args.command is None:
+        parser.print_help()
+        return EXIT_USAGE
+    try:
+        return int(args.run(args))
+    except KeyboardInterrupt:
+        print("fabhal: interrupted", file=sys.stderr)
+        return EXIT_USAGE
+    except Exception as exc:  # an internal error: say so, never a bare traceback
+        if args.debug:
+            traceback.print_exc()
+        print(
+            f"fabhal: internal error: {type(exc).__name__}: {exc}\n"
+            f"This is a bug in FabHaL, not in your program. Please report it to {ISSUES_URL} "
+            "with the .fhl file and the command you ran (add --debug to see the traceback).",
+            file=sys.stderr,
+        )
+        return EXIT_USAGE

@@ -1,0 +1,117 @@
+"""Files -> parsed modules: the program, what it imports, and the part library.
+
+`import "path.fhl"` resolves relative to the importing file, then to the
+standard library. The standard library (`stdlib_parts/*.fhl`) is always
+loaded, so `DoubleHook()` needs no import. Importing a file twice (or in a
+cycle) loads it once.
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass
+from pathlib import Path
+
+from fabhal import resources
+from fabhal.diagnostics import Diagnostic, FabhalError, error
+from fabhal.source import SourceFile
+from fabhal.syntax import ast
+from fabhal.syntax.parser import parse_source
+
+
+class InputError(FabhalError):
+    """The program file itself cannot be read (missing, unreadable, not UTF-8)."""
+
+
+@dataclass(frozen=True)
+class LoadedProgram:
+    """The main module (None if it has syntax errors), every module it pulled in
+    (library first), their sources, and what went wrong reading them."""
+
+    main: ast.Module | None
+    modules: tuple[ast.Module, ...]
+    sources: dict[str, SourceFile]
+    diagnostics: tuple[Diagnostic, ...]
+
+
+def display_name(path: Path) -> str:
+    """The path as the user would write it: relative to the working directory when inside it."""
+    try:
+        relative = os.path.relpath(path)
+    except ValueError:  # another drive on Windows
+        return str(path)
+    return str(path) if relative.startswith("..") else relative
+
+
+def read_source(path: Path) -> SourceFile:
+    """Read a program file, turning OS and encoding failures into an InputError."""
+    name = display_name(path)
+    try:
+        return SourceFile.read(path, name)
+    except FileNotFoundError:
+        raise InputError([error("E001", f"no such file: {name}", None, "check the path")]) from None
+    except IsADirectoryError:
+        raise InputError([error("E001", f"{name} is a directory, not a .fhl file", None)]) from None
+    except PermissionError:
+        raise InputError([error("E001", f"cannot read {name}: permission denied", None)]) from None
+    except UnicodeDecodeError as exc:
+        raise InputError(
+            [error("E002", f"{name} is not UTF-8 text (byte {exc.start})", None, "save the file as UTF-8")]
+        ) from None
+    except OSError as exc:
+        raise InputError([error("E001", f"cannot read {name}: {exc.strerror}", None)]) from None
+
+
+class _Loader:
+    def __init__(self) -> None:
+        self.modules: dict[Path, ast.Module] = {}
+        self.sources: dict[str, SourceFile] = {}
+        self.diagnostics: list[Diagnostic] = []
+
+    def load(self, path: Path) -> ast.Module | None:
+        path = path.resolve()
+        if path in self.modules:
+            return self.modules[path]
+        source = read_source(path)
+        self.sources[source.name] = source
+        try:
+            module = parse_source(source)
+        except FabhalError as exc:
+            self.diagnostics.extend(exc.diagnostics)
+            return None
+        self.modules[path] = module  # before its imports: a cycle then stops here
+        for statement in module.statements:
+            if isinstance(statement, ast.ImportStmt):
+                self._load_import(path, statement)
+        return module
+
+    def _load_import(self, importer: Path, statement: ast.ImportStmt) -> None:
+        candidates = [importer.parent / statement.path, resources.stdlib_dir() / statement.path]
+        for candidate in candidates:
+            if candidate.is_file():
+                try:
+                    self.load(candidate)
+                except InputError as exc:  # unreadable import: report it at the import line
+                    self.diagnostics.append(
+                        error("E003", exc.diagnostics[0].message, statement.span, exc.diagnostics[0].help)
+                    )
+                return
+        searched = ", ".join(display_name(c.parent) for c in candidates)
+        self.diagnostics.append(
+            error(
+                "E003",
+                f'cannot find "{statement.path}" to import',
+                statement.span,
+                f"looked in {searched}; paths are relative to the importing file",
+            )
+        )
+
+
+def load_program(path: Path) -> LoadedProgram:
+    """Parse `path`, its imports and the standard library; raises InputError if
+    `path` itself cannot be read. Syntax errors come back as diagnostics."""
+    loader = _Loader()
+    for library_file in sorted(resources.stdlib_dir().glob("*.fhl")):
+        loader.load(library_file)
+    main = loader.load(path)
+    return LoadedProgram(main, tuple(loader.modules.values()), loader.sources, tuple(loader.diagnostics))

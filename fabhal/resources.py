@@ -1,0 +1,42 @@
+"""Where the grammar, the part library and the meshes live.
+
+In a checkout they sit beside the package (`grammar/`, `stdlib_parts/`); a wheel
+carries them inside the package as `fabhal/grammar` and `fabhal/stdlib_parts`
+(see `[tool.hatch.build.targets.wheel.force-include]` in pyproject.toml).
+"""
+
+from __future__ import annotations
+
+import os
+from functools import cache
+from pathlib import Path
+
+_PACKAGE_DIR = Path(__file__).resolve().parent
+
+
+def _data_dir(name: str) -> Path:
+    installed = _PACKAGE_DIR / name
+    if installed.is_dir():
+        return installed
+    return _PACKAGE_DIR.parent / name
+
+
+@cache
+def grammar_path() -> Path:
+    return _data_dir("grammar") / "fabhal.lark"
+
+
+@cache
+def stdlib_dir() -> Path:
+    return _data_dir("stdlib_parts")
+
+
+def cache_dir() -> Path | None:
+    """A per-user cache directory (never the installed package), or None if unwritable."""
+    base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
+    directory = Path(base) / "fabhal"
+    try:
+        directory.mkdir(parents=True, exist_ok=True)
+    except OSError:
+        return None
+    return directory if os.access(directory, os.W_OK) else None
