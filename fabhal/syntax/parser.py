@@ -91,7 +91,7 @@ def parser_kit() -> ParserKit:
         lexer="contextual",
         propagate_positions=True,
         maybe_placeholders=True,
-        strict=False,  # tests/syntax/test_grammar.py builds with strict=True to catch conflicts
+        strict=True,  # a grammar conflict or colliding terminals is an error, not a guess
         postlex=postlex,
         cache=cache_file,
     )

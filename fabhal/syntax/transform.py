@@ -72,6 +72,10 @@ class ToAst(Transformer[Token, ast.Module]):
         _minus, operand = children
         return ast.Negation(operand, self._span(meta))
 
+    def atom(self, meta: Meta, children: list[Any]) -> ast.Expr:
+        (inner,) = _kept(children)  # `( expr )`: the brackets only group
+        return inner
+
     def function_call(self, meta: Meta, children: list[Any]) -> ast.FunctionCall:
         items = _kept(children)
         return ast.FunctionCall(str(items[0]), tuple(items[1:]), self._span(meta))

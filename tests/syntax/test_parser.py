@@ -105,8 +105,8 @@ assembly Chain(n = 2) "S-hooks in a row" {
 
 
 def test_grammar_is_conflict_free_under_strict_mode() -> None:
-    # strict=True turns shift/reduce conflicts and terminal collisions into errors
-    pytest.importorskip("interegular")
+    # strict=True turns shift/reduce conflicts and terminal collisions into errors;
+    # built here without the cache, so the check really runs
     Lark.open(str(resources.grammar_path()), parser="lalr", lexer="contextual", strict=True)
 
 
@@ -122,3 +122,26 @@ def test_every_repository_file_round_trips(path: Path) -> None:
 
 def test_the_repository_has_fhl_files_to_round_trip() -> None:
     assert any(p.parent.name == "programs" for p in FHL_FILES)
+
+
+def test_parenthesised_expressions_group() -> None:
+    (inst,) = parse_text("s = Rod(length: (1 + 2) * 3, radius: -(-2))\n").statements
+    assert isinstance(inst, ast.InstanceDecl)
+    length, radius = (a.value for a in inst.call.args)
+    assert isinstance(length, ast.BinaryOp) and isinstance(length.left, ast.BinaryOp)
+    assert isinstance(radius, ast.Negation) and isinstance(radius.operand, ast.Negation)
+
+
+def test_parser_tables_are_cached_in_the_user_cache_dir(tmp_path: Path) -> None:
+    import subprocess
+    import sys
+
+    env = {"XDG_CACHE_HOME": str(tmp_path), "PATH": "/usr/bin:/bin"}
+    code = "from fabhal.syntax.parser import parse_text; parse_text('s = X()\\n')"
+    for _ in range(2):  # the first run writes the cache, the second reads it
+        run = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True)
+        assert run.returncode == 0, run.stderr
+    cached = list((tmp_path / "fabhal").glob("*.lark-cache"))
+    assert len(cached) == 1
+    package_dir = Path(resources.grammar_path()).parent.parent / "fabhal"
+    assert not list(package_dir.rglob("*.lark-cache"))

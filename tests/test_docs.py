@@ -1,0 +1,56 @@
+"""The docs stay true: examples parse, every diagnostic code is documented and
+each syntax example produces the code it documents."""
+
+from __future__ import annotations
+
+import re
+
+import pytest
+
+from fabhal.diagnostics import FabhalError
+from fabhal.syntax.parser import parse_text
+from tests.conftest import REPO
+
+LANGUAGE = (REPO / "docs" / "language.md").read_text()
+ERRORS = (REPO / "docs" / "errors.md").read_text()
+FENCE = re.compile(r"```fhl\n(.*?)```", re.S)
+
+
+def language_examples() -> list[str]:
+    return FENCE.findall(LANGUAGE)
+
+
+@pytest.mark.parametrize("example", language_examples())
+def test_language_examples_parse(example: str) -> None:
+    parse_text(example, "docs/language.md")
+
+
+def documented_sections() -> dict[str, str]:
+    sections = re.split(r"^## (E\d{3})\b.*$", ERRORS, flags=re.M)
+    return dict(zip(sections[1::2], sections[2::2], strict=True))
+
+
+def emitted_codes() -> set[str]:
+    sources = (p.read_text() for p in (REPO / "fabhal").rglob("*.py"))
+    return {code for text in sources for code in re.findall(r'"(E\d{3})"', text)}
+
+
+def test_every_emitted_code_is_documented() -> None:
+    missing = emitted_codes() - set(documented_sections())
+    assert not missing, f"add these codes to docs/errors.md: {sorted(missing)}"
+
+
+def test_no_documented_code_is_stale() -> None:
+    stale = set(documented_sections()) - emitted_codes()
+    assert not stale, f"docs/errors.md documents codes nothing emits: {sorted(stale)}"
+
+
+SYNTAX_SECTIONS = sorted((c, s) for c, s in documented_sections().items() if c.startswith("E1"))
+
+
+@pytest.mark.parametrize(("code", "section"), SYNTAX_SECTIONS, ids=[c for c, _ in SYNTAX_SECTIONS])
+def test_syntax_examples_produce_their_code(code: str, section: str) -> None:
+    (example, *_) = FENCE.findall(section)
+    with pytest.raises(FabhalError) as caught:
+        parse_text(example, "docs/errors.md")
+    assert caught.value.diagnostics[0].code == code

@@ -1,0 +1,50 @@
+"""A plain `pip install .` must carry grammar/ and stdlib_parts/ inside the wheel,
+so `fabhal check` works from outside the checkout."""
+
+from __future__ import annotations
+
+import shutil
+import subprocess
+import venv
+from pathlib import Path
+
+import pytest
+
+from tests.conftest import REPO
+
+
+@pytest.mark.slow
+def test_non_editable_install_works_outside_the_checkout(tmp_path: Path) -> None:
+    # a venv that sees the already-installed dependencies, so no network is needed
+    env_dir = tmp_path / "venv"
+    venv.EnvBuilder(system_site_packages=True, with_pip=True).create(env_dir)
+    python = env_dir / "bin" / "python"
+    source = tmp_path / "src"  # a copy, so the build leaves no artefacts in the checkout
+    shutil.copytree(
+        REPO, source, ignore=shutil.ignore_patterns(".git", "*.egg-info", "__pycache__", ".*cache")
+    )
+    install = subprocess.run(
+        [str(python), "-m", "pip", "install", "-q", "--no-deps", "--no-build-isolation", str(source)],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    assert install.returncode == 0, install.stderr
+    shutil.rmtree(source)  # nothing may resolve back to a checkout
+
+    elsewhere = tmp_path / "work"
+    elsewhere.mkdir()
+    program = elsewhere / "mug.fhl"
+    program.write_text((REPO / "programs" / "mug_hanger.fhl").read_text())
+    where = subprocess.run(
+        [str(python), "-c", "import fabhal.resources as r; print(r.grammar_path()); print(r.stdlib_dir())"],
+        cwd=elsewhere,
+        capture_output=True,
+        text=True,
+    )
+    assert str(env_dir) in where.stdout, where.stdout + where.stderr
+    run = subprocess.run(
+        [str(env_dir / "bin" / "fabhal"), "check", "mug.fhl"], cwd=elsewhere, capture_output=True, text=True
+    )
+    assert run.returncode == 0, run.stdout + run.stderr
+    assert "mug.fhl: ok" in run.stdout
