@@ -2,10 +2,13 @@
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 
 from fabhal.diagnostics import Diagnostic, has_errors, sort_diagnostics
+from fabhal.elaborate import FlatProgram, elaborate
+from fabhal.library import Library, build_library
 from fabhal.load import LoadedProgram, load_program
 from fabhal.source import SourceFile
 
@@ -13,6 +16,8 @@ from fabhal.source import SourceFile
 @dataclass(frozen=True)
 class CheckResult:
     program: LoadedProgram
+    library: Library
+    flat: FlatProgram | None
     diagnostics: tuple[Diagnostic, ...]
 
     @property
@@ -24,10 +29,21 @@ class CheckResult:
         return self.program.sources
 
 
-def check(path: Path) -> CheckResult:
-    """Everything before solving: read, parse, resolve imports (later: elaborate, check).
+def check(path: Path, bindings: Mapping[str, str] | None = None) -> CheckResult:
+    """Everything before solving: read, parse, resolve imports, check the part
+    definitions, elaborate the program (bind `param`s, unroll loops, resolve names).
 
     Raises `load.InputError` when the file itself cannot be read.
     """
     program = load_program(path)
-    return CheckResult(program, tuple(sort_diagnostics(program.diagnostics)))
+    library, problems = build_library(program)
+    flat, elaboration_problems = elaborate(program, library, bindings)
+    diagnostics = sort_diagnostics([*program.diagnostics, *problems, *elaboration_problems])
+    return CheckResult(program, library, flat, tuple(diagnostics))
+
+
+def part_library() -> CheckResult:
+    """The standard library alone (for `fabhal parts`)."""
+    program = load_program(None)
+    library, problems = build_library(program)
+    return CheckResult(program, library, None, tuple(sort_diagnostics([*program.diagnostics, *problems])))

@@ -12,7 +12,7 @@ import sys
 import traceback
 from collections.abc import Sequence
 from pathlib import Path
-from typing import NoReturn
+from typing import Any, NoReturn
 
 from fabhal import __version__
 from fabhal.diagnostics import Diagnostic, render_all, to_json
@@ -25,6 +25,8 @@ MAIN_EPILOG = """\
 examples:
   fabhal check programs/mug_hanger.fhl       validate a program, report every problem
   fabhal check --json programs/*.fhl         the same as a JSON array, for tools
+  fabhal parts                               the part library, one line per part
+  fabhal parts DoubleHook                    one part: primitives, DoFs, mass
   fabhal check --help                        more about one command
 
 A program (.fhl) says what the hack hangs from (environment), what it holds
@@ -42,6 +44,20 @@ exit status: 0 no errors (warnings allowed), 1 errors found, 2 a file could
 not be read (or an internal error).
 Each diagnostic reads `file:line:col: error[CODE]: message` and ends with a
 `help:` line; docs/errors.md explains every CODE with an example and a fix.
+"""
+
+
+PARTS_EPILOG = """\
+examples:
+  fabhal parts                      every part: its primitives and what it is
+  fabhal parts DoubleHook           primitives with shape parameters, frames and
+                                    degrees of freedom; mass, centre of mass, size
+  fabhal parts ParamTurnbuckle --json
+
+A part connects through its primitives: `connect s1.hook2 -- rod` uses the
+primitive `hook2` of the part `s1`. Tags: UNBOUNDED (turns freely),
+BOUNDED_AND_CLAMPED (stops at its ends), BOUNDED_AND_OPEN (past an end the
+connection comes apart).
 """
 
 
@@ -73,6 +89,17 @@ def build_parser() -> argparse.ArgumentParser:
     check.add_argument("files", nargs="+", type=Path, metavar="FILE", help=".fhl program(s) to check")
     check.add_argument("--json", action="store_true", help="print diagnostics as a JSON array on stdout")
     check.set_defaults(run=run_check)
+
+    parts = commands.add_parser(
+        "parts",
+        help="list the part library, or show one part",
+        description="Show the annotated object library (stdlib_parts/*.fhl).",
+        epilog=PARTS_EPILOG,
+        formatter_class=formatter,
+    )
+    parts.add_argument("name", nargs="?", metavar="NAME", help="a part to show in full")
+    parts.add_argument("--json", action="store_true", help="print JSON instead of tables")
+    parts.set_defaults(run=run_parts)
     return parser
 
 
@@ -106,6 +133,45 @@ def run_check(args: argparse.Namespace) -> int:
     if args.json:
         print(json.dumps(collected, indent=2))
     return status
+
+
+def run_parts(args: argparse.Namespace) -> int:
+    from fabhal import api
+    from fabhal.report import parts as report
+    from fabhal.syntax.hints import did_you_mean
+
+    result = api.part_library()
+    if not result.ok:
+        _print_diagnostics(result.diagnostics, result.sources)
+        return EXIT_DIAGNOSTICS
+    library = result.library
+    if args.name is None:
+        if args.json:
+            print(json.dumps(report.list_json(library), indent=2))
+        else:
+            _console().print(report.list_table(library))
+        return EXIT_OK
+    if args.name not in library.parts:
+        suggestion = did_you_mean(args.name, library.parts)
+        hint = f"did you mean `{suggestion}`? " if suggestion else ""
+        print(f"fabhal: no part named `{args.name}`; {hint}(`fabhal parts` lists them all)", file=sys.stderr)
+        return EXIT_USAGE
+    part_type = library.parts[args.name]
+    spec = library.instantiate(args.name, {}, part_type.span)
+    info = report.detail(part_type, spec)
+    if args.json:
+        print(json.dumps(info, indent=2))
+    else:
+        console = _console()
+        for renderable in report.detail_renderables(info):
+            console.print(renderable)
+    return EXIT_OK
+
+
+def _console() -> Any:
+    from rich.console import Console
+
+    return Console(width=None if sys.stdout.isatty() else 140)
 
 
 def _warning_count(diagnostics: Sequence[Diagnostic]) -> str:

@@ -31,11 +31,16 @@ class LoadedProgram:
     main: ast.Module | None
     modules: tuple[ast.Module, ...]
     sources: dict[str, SourceFile]
+    paths: dict[str, Path]  # display name -> file, to resolve paths written in a module
     diagnostics: tuple[Diagnostic, ...]
 
 
 def display_name(path: Path) -> str:
-    """The path as the user would write it: relative to the working directory when inside it."""
+    """The path as the user would write it: relative to the working directory when
+    inside it; library files as `stdlib_parts/...` wherever the library is installed."""
+    library = resources.stdlib_dir().resolve()
+    if path.resolve().is_relative_to(library):
+        return str(Path("stdlib_parts") / path.resolve().relative_to(library))
     try:
         relative = os.path.relpath(path)
     except ValueError:  # another drive on Windows
@@ -66,6 +71,7 @@ class _Loader:
     def __init__(self) -> None:
         self.modules: dict[Path, ast.Module] = {}
         self.sources: dict[str, SourceFile] = {}
+        self.paths: dict[str, Path] = {}
         self.diagnostics: list[Diagnostic] = []
 
     def load(self, path: Path) -> ast.Module | None:
@@ -74,6 +80,7 @@ class _Loader:
             return self.modules[path]
         source = read_source(path)
         self.sources[source.name] = source
+        self.paths[source.name] = path
         try:
             module = parse_source(source)
         except FabhalError as exc:
@@ -107,11 +114,14 @@ class _Loader:
         )
 
 
-def load_program(path: Path) -> LoadedProgram:
-    """Parse `path`, its imports and the standard library; raises InputError if
-    `path` itself cannot be read. Syntax errors come back as diagnostics."""
+def load_program(path: Path | None) -> LoadedProgram:
+    """Parse `path` (if any), its imports and the standard library; raises
+    InputError if `path` itself cannot be read. Syntax errors come back as
+    diagnostics."""
     loader = _Loader()
     for library_file in sorted(resources.stdlib_dir().glob("*.fhl")):
         loader.load(library_file)
-    main = loader.load(path)
-    return LoadedProgram(main, tuple(loader.modules.values()), loader.sources, tuple(loader.diagnostics))
+    main = loader.load(path) if path is not None else None
+    return LoadedProgram(
+        main, tuple(loader.modules.values()), loader.sources, loader.paths, tuple(loader.diagnostics)
+    )

@@ -3,12 +3,16 @@ and reviewed as diffs."""
 
 from __future__ import annotations
 
+import json
 import os
+from functools import cache
 from pathlib import Path
+from typing import Any
 
 import pytest
 
 REPO = Path(__file__).resolve().parent.parent
+DATA = REPO / "tests" / "data"  # reference data (MIT, see tests/data/LICENSE)
 UPDATE_GOLDEN = os.environ.get("FABHAL_UPDATE_GOLDEN") == "1"
 
 
@@ -24,6 +28,12 @@ def assert_golden(actual: str, golden: Path) -> None:
             pytest.fail(f"missing golden file {golden}; run with FABHAL_UPDATE_GOLDEN=1 to create it")
         golden.write_text(actual)
     assert actual == golden.read_text(), f"output differs from {golden}"
+
+
+@cache
+def spec_json(name: str) -> Any:
+    """A data file of the FabHacks reference implementation, kept in tests/data."""
+    return json.loads((DATA / name).read_text())
 
 
 @pytest.fixture

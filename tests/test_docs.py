@@ -4,9 +4,11 @@ each syntax example produces the code it documents."""
 from __future__ import annotations
 
 import re
+from pathlib import Path
 
 import pytest
 
+from fabhal import api
 from fabhal.diagnostics import FabhalError
 from fabhal.syntax.parser import parse_text
 from tests.conftest import REPO
@@ -26,13 +28,13 @@ def test_language_examples_parse(example: str) -> None:
 
 
 def documented_sections() -> dict[str, str]:
-    sections = re.split(r"^## (E\d{3})\b.*$", ERRORS, flags=re.M)
+    sections = re.split(r"^## ([EW]\d{3})\b.*$", ERRORS, flags=re.M)
     return dict(zip(sections[1::2], sections[2::2], strict=True))
 
 
 def emitted_codes() -> set[str]:
     sources = (p.read_text() for p in (REPO / "fabhal").rglob("*.py"))
-    return {code for text in sources for code in re.findall(r'"(E\d{3})"', text)}
+    return {code for text in sources for code in re.findall(r'"([EW]\d{3})"', text)}
 
 
 def test_every_emitted_code_is_documented() -> None:
@@ -45,12 +47,29 @@ def test_no_documented_code_is_stale() -> None:
     assert not stale, f"docs/errors.md documents codes nothing emits: {sorted(stale)}"
 
 
+def first_example(section: str) -> str:
+    (example, *_) = FENCE.findall(section)
+    return example
+
+
 SYNTAX_SECTIONS = sorted((c, s) for c, s in documented_sections().items() if c.startswith("E1"))
 
 
 @pytest.mark.parametrize(("code", "section"), SYNTAX_SECTIONS, ids=[c for c, _ in SYNTAX_SECTIONS])
 def test_syntax_examples_produce_their_code(code: str, section: str) -> None:
-    (example, *_) = FENCE.findall(section)
     with pytest.raises(FabhalError) as caught:
-        parse_text(example, "docs/errors.md")
+        parse_text(first_example(section), "docs/errors.md")
     assert caught.value.diagnostics[0].code == code
+
+
+CHECK_SECTIONS = sorted(
+    (c, s) for c, s in documented_sections().items() if c[1] in "23" and c != "W301" and "```fhl" in s
+)
+
+
+@pytest.mark.parametrize(("code", "section"), CHECK_SECTIONS, ids=[c for c, _ in CHECK_SECTIONS])
+def test_check_examples_produce_their_code(code: str, section: str, tmp_path: Path) -> None:
+    program = tmp_path / "example.fhl"
+    program.write_text(first_example(section))
+    result = api.check(program)
+    assert code in [d.code for d in result.diagnostics], result.diagnostics

@@ -10,7 +10,23 @@ import pytest
 from tests.conftest import REPO
 
 # earlier stages first; a module may import its own stage or earlier ones
-ORDER = ["source", "diagnostics", "resources", "syntax", "load", "api", "cli"]
+ORDER = [
+    "__init__",
+    "source",
+    "diagnostics",
+    "resources",
+    "kinematics",
+    "primitives",
+    "syntax",
+    "load",
+    "evaluate",
+    "library",
+    "meshes",
+    "elaborate",
+    "report",
+    "api",
+    "cli",
+]
 
 
 def stage_of(module: str) -> str:

@@ -270,6 +270,16 @@ class PrimitiveDecl:
     kind_span: Span
 
 
+@dataclass(frozen=True)
+class MaterialDef:
+    """`material steel(density: 7.85) "carbon steel wire"`: density in g/cm3."""
+
+    name: str
+    args: tuple[Argument, ...]
+    description: str | None
+    span: Span
+
+
 PartItem = MeshLine | MassLine | MaterialLine | PrimitiveDecl
 
 
@@ -294,6 +304,7 @@ Statement = (
     | PartDef
     | AssemblyDef
     | PortDecl
+    | MaterialDef
 )
 
 

@@ -116,6 +116,9 @@ def _statement(statement: ast.Statement, depth: int) -> list[str]:
         return [f"{pad}target {_ref(statement.ref)}{_placement(statement.placement)}"]
     if isinstance(statement, ast.PortDecl):
         return [f"{pad}port {statement.name} = {_ref(statement.ref)}"]
+    if isinstance(statement, ast.MaterialDef):
+        description = f' "{statement.description}"' if statement.description is not None else ""
+        return [f"{pad}material {statement.name}({_arguments(statement.args)}){description}"]
     if isinstance(statement, ast.ForLoop):
         bounds = f"{format_expr(statement.low)} .. {format_expr(statement.high)}"
         head = f"{pad}for {statement.variable} in {bounds} {{"

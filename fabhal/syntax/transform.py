@@ -221,6 +221,13 @@ class ToAst(Transformer[Token, ast.Module]):
         (name,) = _kept(children)
         return ast.MaterialLine(str(name), self._span(meta))
 
+    def material_def(self, meta: Meta, children: list[Any]) -> ast.MaterialDef:
+        items = _kept(children)
+        args = next((i for i in items if isinstance(i, tuple)), ())
+        strings = [i for i in items if isinstance(i, Token) and i.type == "STRING"]
+        description = _string(strings[0]) if strings else None
+        return ast.MaterialDef(str(items[0]), args, description, self._span(meta))
+
     def primitive_decl(self, meta: Meta, children: list[Any]) -> ast.PrimitiveDecl:
         items = _kept(children)
         kind, name = items[0], items[1]

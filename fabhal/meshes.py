@@ -1,0 +1,145 @@
+"""Part meshes (loaded, or built from the primitives) and mass properties.
+
+Mass = mesh volume x material density (g/cm3 -> grams), unless the part has a
+`mass` line; the centre of mass is the mesh's centroid (uniform density).
+Meshes load lazily (trimesh is imported only here) and are cached per file.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import lru_cache
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from fabhal.kinematics.mass import volume_and_centroid
+from fabhal.library import PartSpec
+from fabhal.primitives import Primitive
+
+if TYPE_CHECKING:
+    import trimesh
+
+_ARC_SEGMENTS_PER_TURN = 48
+_WIRE_SEGMENTS = 12
+
+
+@dataclass(frozen=True)
+class MassProperties:
+    mass_g: float | None  # None: no material and no `mass` line (environments, bare primitives)
+    center_of_mass: tuple[float, float, float]  # mm, in the part frame
+    bounds: tuple[tuple[float, float, float], tuple[float, float, float]]  # mm, part frame
+    volume_mm3: float
+    source: str  # "mesh", "primitives" or "mass line"
+
+
+@lru_cache(maxsize=64)
+def load_mesh(path: Path) -> trimesh.Trimesh:
+    import trimesh
+
+    mesh = trimesh.load(str(path), force="mesh")
+    assert isinstance(mesh, trimesh.Trimesh)
+    return mesh
+
+
+def _arc_mesh(radius: float, wire: float, sweep_deg: float) -> trimesh.Trimesh:
+    """A wire of radius `wire` along an arc of radius `radius` in the y-z plane,
+    from -z (0 deg) towards -y (90 deg); closed with end caps unless a full circle."""
+    import trimesh
+
+    full = sweep_deg >= 360.0
+    n_u = max(int(_ARC_SEGMENTS_PER_TURN * sweep_deg / 360.0), 2)
+    u = np.radians(np.linspace(0.0, sweep_deg, n_u, endpoint=not full))
+    v = np.linspace(0.0, 2 * np.pi, _WIRE_SEGMENTS, endpoint=False)
+    uu, vv = np.meshgrid(u, v, indexing="ij")
+    radial = np.stack([np.zeros_like(uu), -np.sin(uu), -np.cos(uu)], axis=-1)
+    normal_x = np.array([1.0, 0.0, 0.0])
+    points = radius * radial + wire * (np.cos(vv)[..., None] * radial + np.sin(vv)[..., None] * normal_x)
+    vertices = points.reshape(-1, 3)
+    faces = []
+    rings = n_u if full else n_u - 1
+    for i in range(rings):
+        i2 = (i + 1) % n_u
+        for j in range(_WIRE_SEGMENTS):
+            j2 = (j + 1) % _WIRE_SEGMENTS
+            a, b = i * _WIRE_SEGMENTS + j, i * _WIRE_SEGMENTS + j2
+            c, d = i2 * _WIRE_SEGMENTS + j, i2 * _WIRE_SEGMENTS + j2
+            faces += [[a, c, b], [b, c, d]]
+    if not full:
+        centers = radius * radial[[0, -1], 0]
+        first, last = len(vertices), len(vertices) + 1
+        vertices = np.vstack([vertices, centers])
+        end = (n_u - 1) * _WIRE_SEGMENTS
+        for j in range(_WIRE_SEGMENTS):
+            j2 = (j + 1) % _WIRE_SEGMENTS
+            faces.append([first, j, j2])
+            faces.append([last, end + j2, end + j])
+    mesh = trimesh.Trimesh(vertices, np.array(faces), process=True)
+    mesh.fix_normals()
+    return mesh
+
+
+def primitive_mesh(primitive: Primitive) -> trimesh.Trimesh:
+    """The primitive's shape (reference section b.1) placed in its part's frame."""
+    import trimesh
+
+    p = primitive.params
+    kind = primitive.kind
+    if kind == "rod":
+        mesh = trimesh.creation.cylinder(radius=p["radius"], height=p["length"], sections=24)
+    elif kind == "tube":
+        mesh = trimesh.creation.annulus(
+            r_min=p["inner_radius"], r_max=p["inner_radius"] + p["thickness"], height=p["length"], sections=32
+        )
+    elif kind in ("hook", "hole"):
+        sweep = p.get("arc_angle", 360.0)
+        mesh = _arc_mesh(p["arc_radius"], p["thickness"], sweep)
+    elif kind == "clip":
+        offset = (p["dist"] + p["open_gap"]) / 4.0
+        jaws = []
+        for side in (-1.0, 1.0):
+            jaw = trimesh.creation.box(extents=(p["thickness"], p["width"], p["height"]))
+            jaw.apply_translation((side * offset, 0.0, 0.0))
+            jaws.append(jaw)
+        mesh = trimesh.util.concatenate(jaws)
+    elif kind == "edge":
+        mesh = trimesh.creation.box(extents=(p["length"], p["width"], p["height"]))
+    elif kind == "surface":
+        mesh = trimesh.creation.box(extents=(p["length"], p["width"], 0.1))
+    else:  # hemisphere: the lower half ball
+        ball = trimesh.creation.icosphere(subdivisions=2, radius=p["radius"])
+        mesh = ball.slice_plane(plane_origin=(0.0, 0.0, 0.0), plane_normal=(0.0, 0.0, -1.0), cap=True)
+    mesh.apply_transform(primitive.base_frame())
+    return mesh
+
+
+def part_mesh(spec: PartSpec) -> trimesh.Trimesh:
+    """The part's mesh file, or its primitives' shapes when it has none."""
+    import trimesh
+
+    if spec.mesh is not None:
+        return load_mesh(spec.mesh)
+    combined = trimesh.util.concatenate([primitive_mesh(p) for p in spec.primitives])
+    assert isinstance(combined, trimesh.Trimesh)
+    return combined
+
+
+def mass_properties(spec: PartSpec) -> MassProperties:
+    mesh = part_mesh(spec)
+    volume, centroid = volume_and_centroid(np.asarray(mesh.vertices), np.asarray(mesh.faces))
+    if spec.mass_override is not None:
+        mass, source = spec.mass_override, "mass line"
+    elif spec.density is not None:
+        mass = volume * spec.density / 1000.0  # mm3 x g/cm3 -> g
+        source = "mesh" if spec.mesh is not None else "primitives"
+    else:
+        mass, source = None, "mesh" if spec.mesh is not None else "primitives"
+    low, high = (tuple(float(c) for c in corner) for corner in mesh.bounds)
+    return MassProperties(
+        mass,
+        (float(centroid[0]), float(centroid[1]), float(centroid[2])),
+        (low, high),  # type: ignore[arg-type]
+        volume,
+        source,
+    )

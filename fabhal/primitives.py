@@ -1,0 +1,399 @@
+"""The eight connector primitive kinds, as tables, and their connector frames.
+
+Each kind has shape parameters (with units and validity rules) and flags; the
+flags pick a *variant* (centre-line rods/holes/tubes, flexible hooks/holes),
+and the variant fixes the connection's degrees of freedom and the connector
+frame formula. Numbers and formulas follow shared/spec/FABHAL_REFERENCE.md
+(sections b.1-b.3); the tags follow its "Decisions" 4-5:
+
+* sliding off the free end of an open rod, tube or edge, or off a hook's free
+  tip, is BOUNDED_AND_OPEN (leaving the range = falling off);
+* flex angles, hemisphere angles, clip positions and positions on primitives
+  that cannot be slid off (`slide_off: false`) are BOUNDED_AND_CLAMPED;
+* full-circle angles are UNBOUNDED (periodic).
+
+`connector_frames` is pure numpy, batched over DoF samples.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from enum import Enum
+
+import numpy as np
+
+from fabhal.kinematics.frames import Array, frame_matrix, rot_x, rot_y, rot_z, translation
+
+
+class Tag(str, Enum):
+    UNBOUNDED = "UNBOUNDED"
+    BOUNDED_AND_CLAMPED = "BOUNDED_AND_CLAMPED"
+    BOUNDED_AND_OPEN = "BOUNDED_AND_OPEN"
+
+
+@dataclass(frozen=True)
+class ParamSpec:
+    """A numeric shape parameter. `rule`: positive, nonnegative or arc_angle (0, 360]."""
+
+    name: str
+    unit: str
+    rule: str = "positive"
+    optional: bool = False  # an optional parameter without a value is simply absent
+
+
+@dataclass(frozen=True)
+class FlagSpec:
+    """A true/false property; `default` None means "same as `follows`"."""
+
+    name: str
+    meaning: str
+    default: bool | None = False
+    follows: str | None = None
+
+
+@dataclass(frozen=True)
+class KindSpec:
+    kind: str
+    meaning: str
+    params: tuple[ParamSpec, ...]
+    flags: tuple[FlagSpec, ...]
+    single_connection: bool = False
+
+    def param(self, name: str) -> ParamSpec | None:
+        return next((p for p in self.params if p.name == name), None)
+
+    def flag(self, name: str) -> FlagSpec | None:
+        return next((f for f in self.flags if f.name == name), None)
+
+
+_SLIDE_OFF = FlagSpec("slide_off", "a connection can slide off its free end(s) and fall", True)
+_THREADABLE = FlagSpec(
+    "threadable", "has an opening a closed loop can be threaded through", None, follows="slide_off"
+)
+_CENTERLINE = FlagSpec("centerline", "connect on the centre line instead of the surface")
+_FLEX = FlagSpec("flex", "may also twist about the contact normal (one more angle)")
+
+KINDS: dict[str, KindSpec] = {
+    spec.kind: spec
+    for spec in (
+        KindSpec(
+            "rod",
+            "a cylinder along its local z axis, centred",
+            (ParamSpec("radius", "mm"), ParamSpec("length", "mm")),
+            (_SLIDE_OFF, _THREADABLE, _CENTERLINE),
+        ),
+        KindSpec(
+            "hook",
+            "a wire arc in the local y-z plane from -z (theta 0) through -y (90) to +z (180)",
+            (
+                ParamSpec("arc_radius", "mm"),
+                ParamSpec("arc_angle", "deg", "arc_angle"),
+                ParamSpec("thickness", "mm"),
+                ParamSpec("tip", "deg", "nonnegative", optional=True),
+            ),
+            (_SLIDE_OFF, _THREADABLE, _FLEX),
+        ),
+        KindSpec(
+            "hole",
+            "a closed ring (a hook with a 360-degree arc)",
+            (ParamSpec("arc_radius", "mm"), ParamSpec("thickness", "mm")),
+            (_CENTERLINE, _FLEX),
+        ),
+        KindSpec(
+            "clip",
+            "two jaws opening along the local z axis",
+            (
+                ParamSpec("width", "mm"),
+                ParamSpec("height", "mm"),
+                ParamSpec("thickness", "mm"),
+                ParamSpec("dist", "mm", "nonnegative"),
+                ParamSpec("open_gap", "mm"),
+            ),
+            (),
+            single_connection=True,
+        ),
+        KindSpec(
+            "tube",
+            "a hollow cylinder along its local z axis, centred",
+            (ParamSpec("inner_radius", "mm"), ParamSpec("thickness", "mm"), ParamSpec("length", "mm")),
+            (_SLIDE_OFF, _CENTERLINE),
+        ),
+        KindSpec(
+            "edge",
+            "a box edge along local x, on the face y = +width/2",
+            (ParamSpec("width", "mm"), ParamSpec("length", "mm"), ParamSpec("height", "mm")),
+            (),
+        ),
+        KindSpec(
+            "surface",
+            "a plate length (x) by width (y), connectors on its top face (normal +z)",
+            (ParamSpec("width", "mm"), ParamSpec("length", "mm")),
+            (FlagSpec("slide_off", "a connection can slide off its border and fall", False),),
+        ),
+        KindSpec(
+            "hemisphere",
+            "the lower half of a ball, centred at the origin",
+            (ParamSpec("radius", "mm"),),
+            (),
+            single_connection=True,
+        ),
+    )
+}
+
+
+def variant_of(kind: str, flags: Mapping[str, bool]) -> str:
+    """The reference's connector-kind name, which selects DoFs and frame formula."""
+    if kind == "rod":
+        return "RodCtl" if flags.get("centerline") else "Rod"
+    if kind == "hook":
+        return "HookFlex" if flags.get("flex") else "Hook"
+    if kind == "hole":
+        if flags.get("centerline"):
+            return "RingCtl"
+        return "RingFlex" if flags.get("flex") else "Ring"
+    if kind == "tube":
+        return "TubeCtl" if flags.get("centerline") else "Tube"
+    return kind.capitalize()
+
+
+# ---------------------------------------------------------------- validation
+
+
+def check_params(kind: str, params: Mapping[str, float]) -> list[tuple[str | None, str]]:
+    """Problems with a primitive's numeric parameters: (parameter or None, message)."""
+    spec = KINDS[kind]
+    problems: list[tuple[str | None, str]] = []
+    for p in spec.params:
+        if p.name not in params:
+            if not p.optional:
+                problems.append((None, f"missing parameter `{p.name}` ({p.unit})"))
+            continue
+        value = params[p.name]
+        if p.rule == "positive" and not value > 0:
+            problems.append((p.name, f"{p.name} == {value:g}, but must be positive"))
+        elif p.rule == "nonnegative" and not value >= 0:
+            problems.append((p.name, f"{p.name} == {value:g}, but must not be negative"))
+        elif p.rule == "arc_angle" and not 0 < value <= 360:
+            problems.append((p.name, f"{p.name} == {value:g}, but must be in (0, 360]"))
+    if kind in ("hook", "hole") and {"arc_radius", "thickness"} <= params.keys():
+        if params["thickness"] >= params["arc_radius"]:
+            problems.append(
+                (
+                    "thickness",
+                    f"thickness {params['thickness']:g} mm leaves no opening inside arc_radius "
+                    f"{params['arc_radius']:g} mm (the wire radius must be smaller)",
+                )
+            )
+    if kind == "hook" and "tip" in params and {"arc_angle"} <= params.keys():
+        if params["tip"] not in (0.0, params["arc_angle"]):
+            problems.append(
+                ("tip", f"tip == {params['tip']:g}, but must be 0 or the arc angle ({params['arc_angle']:g})")
+            )
+    return problems
+
+
+def resolve_flags(kind: str, given: Mapping[str, bool]) -> dict[str, bool]:
+    """Every flag of the kind, defaults filled in (a `follows` flag copies its leader)."""
+    resolved: dict[str, bool] = {}
+    for f in KINDS[kind].flags:
+        if f.name in given:
+            resolved[f.name] = given[f.name]
+        elif f.follows is not None:
+            resolved[f.name] = given.get(f.follows, resolved.get(f.follows, True))
+        else:
+            resolved[f.name] = bool(f.default)
+    return resolved
+
+
+# ---------------------------------------------------------------- degrees of freedom
+
+
+@dataclass(frozen=True)
+class Dof:
+    """One connection degree of freedom on a primitive (angles in degrees, t in [0, 1])."""
+
+    name: str
+    low: float
+    high: float
+    default: float
+    periodic: bool = False
+    low_open: bool = False
+    high_open: bool = False
+    critical: bool = False  # a position that uses up the primitive's length/area
+
+    @property
+    def tag(self) -> Tag:
+        if self.periodic:
+            return Tag.UNBOUNDED
+        return Tag.BOUNDED_AND_OPEN if self.low_open or self.high_open else Tag.BOUNDED_AND_CLAMPED
+
+
+def _slide(name: str, open_ends: bool) -> Dof:
+    return Dof(name, 0.0, 1.0, 0.5, low_open=open_ends, high_open=open_ends, critical=True)
+
+
+def _spin(name: str, default: float = 0.0) -> Dof:
+    return Dof(name, 0.0, 360.0, default, periodic=True)
+
+
+def _hook_theta(params: Mapping[str, float], flags: Mapping[str, bool]) -> Dof:
+    arc = params["arc_angle"]
+    if arc >= 360.0:
+        return _spin("theta", 180.0)
+    slides_off = flags.get("slide_off", True)
+    tip = params.get("tip")  # the free end; unannotated, either end may be free
+    low_open = slides_off and tip in (None, 0.0)
+    high_open = slides_off and tip in (None, arc)
+    return Dof("theta", 0.0, arc, arc / 2.0, low_open=low_open, high_open=high_open)
+
+
+def dofs_of(variant: str, params: Mapping[str, float], flags: Mapping[str, bool]) -> tuple[Dof, ...]:
+    """The DoFs a connection creates on a primitive, in storage order."""
+    slides_off = flags.get("slide_off", True)
+    flex_phi = Dof("phi", 45.0, 135.0, 90.0)
+    table: dict[str, Callable[[], tuple[Dof, ...]]] = {
+        "Rod": lambda: (_slide("t", slides_off), flex_phi),
+        "RodCtl": lambda: (_slide("t", slides_off),),
+        "Tube": lambda: (_slide("t", slides_off), _spin("theta", 180.0)),
+        "TubeCtl": lambda: (_slide("t", slides_off), _spin("theta", 180.0)),
+        "Hook": lambda: (_hook_theta(params, flags),),
+        "HookFlex": lambda: (_hook_theta(params, flags), flex_phi),
+        "Ring": lambda: (_spin("theta", 180.0),),
+        "RingFlex": lambda: (_spin("theta", 180.0), Dof("phi", 30.0, 150.0, 90.0)),
+        # stored (phi, theta) as in the reference: phi turns about y, theta about x
+        "RingCtl": lambda: (_spin("phi", 0.0), _spin("theta", 180.0)),
+        "Clip": lambda: (Dof("t", 0.0, 1.0, 0.5),),
+        "Edge": lambda: (_slide("t", True),),
+        "Surface": lambda: (_slide("t1", slides_off), _slide("t2", slides_off), _spin("s")),
+        "Hemisphere": lambda: (Dof("theta", 90.0, 270.0, 180.0), Dof("phi", 90.0, 270.0, 180.0), _spin("s")),
+    }
+    return table[variant]()
+
+
+# ---------------------------------------------------------------- connector frames
+
+FrameFormula = Callable[[Mapping[str, float], Array], Array]
+
+
+def _rod(p: Mapping[str, float], x: Array) -> Array:
+    return translation(0.0, p["radius"], (x[..., 0] - 0.5) * p["length"]) @ rot_x(x[..., 1] - 180.0)
+
+
+def _rod_centerline(p: Mapping[str, float], x: Array) -> Array:
+    return translation(0.0, 0.0, (x[..., 0] - 0.5) * p["length"]) @ rot_x(np.full(x.shape[:-1], -90.0))
+
+
+def _tube_at(rho: float, p: Mapping[str, float], x: Array) -> Array:
+    theta = np.radians(x[..., 1])
+    along = translation(0.0, 0.0, (x[..., 0] - 0.5) * p["length"]) @ rot_x(np.full(x.shape[:-1], -90.0))
+    around = translation(-rho * np.sin(theta), 0.0, -rho * np.cos(theta)) @ rot_y(x[..., 1])
+    return along @ around
+
+
+def _tube(p: Mapping[str, float], x: Array) -> Array:
+    return _tube_at(p["inner_radius"] + p["thickness"], p, x)
+
+
+def _tube_centerline(p: Mapping[str, float], x: Array) -> Array:
+    return _tube_at(p["inner_radius"], p, x)
+
+
+def _arc(p: Mapping[str, float], x: Array) -> Array:
+    rho = p["arc_radius"] - p["thickness"]
+    theta = np.radians(x[..., 0])
+    return translation(0.0, -rho * np.sin(theta), -rho * np.cos(theta)) @ rot_x(-x[..., 0])
+
+
+def _arc_flex(p: Mapping[str, float], x: Array) -> Array:
+    return _arc(p, x) @ rot_z(x[..., 1] - 90.0)
+
+
+def _ring_centerline(p: Mapping[str, float], x: Array) -> Array:
+    return rot_y(x[..., 0]) @ rot_x(x[..., 1])
+
+
+def _clip(p: Mapping[str, float], x: Array) -> Array:
+    return translation(0.0, 0.0, (x[..., 0] - 0.5) * p["height"])
+
+
+def _edge(p: Mapping[str, float], x: Array) -> Array:
+    return translation((x[..., 0] - 0.5) * p["length"], p["width"] / 2.0, 0.0)
+
+
+def _surface(p: Mapping[str, float], x: Array) -> Array:
+    offset = translation((x[..., 1] - 0.5) * p["length"], (0.5 - x[..., 0]) * p["width"], 0.05)
+    return offset @ rot_z(x[..., 2])
+
+
+def _hemisphere(p: Mapping[str, float], x: Array) -> Array:
+    r = p["radius"]
+    theta, phi = np.radians(x[..., 0]), np.radians(x[..., 1])
+    on_dome = translation(r * np.sin(phi), r * np.cos(phi) * np.sin(theta), -r * np.cos(phi) * np.cos(theta))
+    return on_dome @ rot_y(x[..., 1]) @ rot_x(-x[..., 0]) @ rot_z(x[..., 2])
+
+
+FRAME_FORMULAS: dict[str, FrameFormula] = {
+    "Rod": _rod,
+    "RodCtl": _rod_centerline,
+    "Tube": _tube,
+    "TubeCtl": _tube_centerline,
+    "Hook": _arc,
+    "HookFlex": _arc_flex,
+    "Ring": _arc,
+    "RingFlex": _arc_flex,
+    "RingCtl": _ring_centerline,
+    "Clip": _clip,
+    "Edge": _edge,
+    "Surface": _surface,
+    "Hemisphere": _hemisphere,
+}
+
+
+# ---------------------------------------------------------------- a resolved primitive
+
+
+@dataclass(frozen=True)
+class Primitive:
+    """A primitive of a part type, all numbers evaluated."""
+
+    name: str
+    kind: str
+    params: Mapping[str, float]
+    flags: Mapping[str, bool]
+    position: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    rotation: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    dofs: tuple[Dof, ...] = field(default=())
+
+    @property
+    def variant(self) -> str:
+        return variant_of(self.kind, self.flags)
+
+    @property
+    def single_connection(self) -> bool:
+        return KINDS[self.kind].single_connection
+
+    def base_frame(self) -> Array:
+        """(4, 4): the primitive's frame in its part's frame."""
+        return frame_matrix(self.position, self.rotation)
+
+    def connector_frames(self, dof_values: np.ndarray) -> Array:
+        """(..., k) DoF values -> (..., 4, 4) connector frames in the part's frame."""
+        values = np.asarray(dof_values, dtype=float)
+        return self.base_frame() @ FRAME_FORMULAS[self.variant](self.params, values)
+
+
+def make_primitive(
+    name: str,
+    kind: str,
+    params: Mapping[str, float],
+    flags: Mapping[str, bool],
+    position: tuple[float, float, float] = (0.0, 0.0, 0.0),
+    rotation: tuple[float, float, float] = (0.0, 0.0, 0.0),
+) -> Primitive:
+    """Fill in defaults and DoFs; `params` must already satisfy `check_params`."""
+    spec = KINDS[kind]
+    full_params = {p.name: float(params[p.name]) for p in spec.params if p.name in params}
+    full_flags = resolve_flags(kind, flags)
+    dofs = dofs_of(variant_of(kind, full_flags), full_params, full_flags)
+    return Primitive(name, kind, full_params, full_flags, position, rotation, dofs)

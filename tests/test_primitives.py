@@ -1,0 +1,134 @@
+"""Primitive kinds: connector frames against the reference's conformance vectors,
+DoF tags, and parameter validation."""
+
+from __future__ import annotations
+
+from functools import cache
+
+import numpy as np
+import pytest
+
+from fabhal import api
+from fabhal.library import Library, PartSpec
+from fabhal.primitives import KINDS, Tag, check_params, make_primitive
+from fabhal.source import Span
+from tests.conftest import spec_json
+
+HERE = Span("test", 1, 1, 1, 1)
+# connector_frames.json sampled ParamHanger with these dimensions (see the spec's file table)
+SAMPLED_ARGUMENTS = {"ParamHanger": {"length": 419.1, "bar_d": 12.7}}
+
+
+@cache
+def library() -> Library:
+    result = api.part_library()
+    assert result.ok, result.diagnostics
+    return result.library
+
+
+def part(name: str) -> PartSpec:
+    args = {k: (v, HERE) for k, v in SAMPLED_ARGUMENTS.get(name, {}).items()}
+    return library().instantiate(name, args, HERE)
+
+
+def conformance_cases() -> list[dict]:
+    return spec_json("connector_frames.json")["connector_frames"]
+
+
+def test_the_conformance_set_covers_every_library_primitive() -> None:
+    cases = {(c["part"], c["primitive"]) for c in conformance_cases()}
+    assert len(cases) == 106
+    ours = {(name, p) for name, t in library().parts.items() for p in t.primitive_names()}
+    assert ours == cases
+
+
+@pytest.mark.parametrize("case", conformance_cases(), ids=lambda c: f"{c['part']}.{c['primitive']}")
+def test_connector_frames_match_the_reference(case: dict) -> None:
+    # tolerance 1e-6: the reference's matrices are printed to 9 decimals
+    primitive = part(case["part"]).primitive(case["primitive"])
+    assert primitive is not None
+    assert primitive.variant == case["variant"]
+    assert [d.name for d in primitive.dofs] == [d["name"] for d in case["dofs"]]
+    samples = np.array([s["dofs"] for s in case["samples"]], dtype=float)
+    expected = np.array([s["matrix"] for s in case["samples"]], dtype=float)
+    np.testing.assert_allclose(primitive.connector_frames(samples), expected, atol=1e-6)
+
+
+def test_dof_tags_follow_the_physics() -> None:
+    def tags(part_name: str, primitive_name: str) -> dict[str, Tag]:
+        primitive = part(part_name).primitive(primitive_name)
+        assert primitive is not None
+        return {d.name: d.tag for d in primitive.dofs}
+
+    # sliding along an open rod can fall off; the flex angle only rests on its stops
+    assert tags("ShowerCurtainRod", "rod") == {"t": Tag.BOUNDED_AND_OPEN, "phi": Tag.BOUNDED_AND_CLAMPED}
+    # a rod closed at its ends (closet rods between walls) holds what hangs on it
+    assert tags("ClosetRods", "rod1")["t"] is Tag.BOUNDED_AND_CLAMPED
+    assert tags("DoubleHook", "hook1") == {"theta": Tag.BOUNDED_AND_OPEN, "phi": Tag.BOUNDED_AND_CLAMPED}
+    assert tags("Mug", "hook") == {"theta": Tag.BOUNDED_AND_CLAMPED}  # closed handle
+    assert tags("RingM", "ring") == {"theta": Tag.UNBOUNDED}
+    assert tags("ClothesClip", "hook") == {"theta": Tag.UNBOUNDED}  # a 360-degree coil
+    assert tags("PlasticClip", "clip") == {"t": Tag.BOUNDED_AND_CLAMPED}
+    assert set(tags("PlasticClip", "hemisphere1").values()) == {Tag.BOUNDED_AND_CLAMPED, Tag.UNBOUNDED}
+    assert tags("Phone", "edge") == {"t": Tag.BOUNDED_AND_OPEN}
+    assert tags("SoapBottle", "surface")["t1"] is Tag.BOUNDED_AND_CLAMPED
+    assert tags("BinderClip", "ring1") == {"phi": Tag.UNBOUNDED, "theta": Tag.UNBOUNDED}
+
+
+def test_a_hook_falls_off_its_tip_only() -> None:
+    # the S-hook's upper hook is free at theta = arc angle and joins the part at 0
+    theta = part("DoubleHook").primitive("hook1").dofs[0]  # type: ignore[union-attr]
+    assert (theta.low_open, theta.high_open) == (False, True)
+    lower = part("DoubleHook").primitive("hook2").dofs[0]  # type: ignore[union-attr]
+    assert (lower.low_open, lower.high_open) == (True, False)
+
+
+def test_no_flex_angle_is_ever_open() -> None:
+    for name in library().parts:
+        for primitive in part(name).primitives:
+            for dof in primitive.dofs:
+                if dof.name == "phi" and primitive.kind in ("rod", "hook", "hole", "hemisphere"):
+                    assert dof.tag is not Tag.BOUNDED_AND_OPEN, (name, primitive.name)
+
+
+@pytest.mark.parametrize(
+    ("kind", "params", "message"),
+    [
+        ("rod", {"radius": -1, "length": 10}, "radius == -1, but must be positive"),
+        (
+            "hook",
+            {"arc_radius": 10, "arc_angle": 400, "thickness": 1},
+            "arc_angle == 400, but must be in (0, 360]",
+        ),
+        ("hook", {"arc_radius": 2, "arc_angle": 90, "thickness": 3}, "leaves no opening"),
+        ("hook", {"arc_radius": 9, "arc_angle": 90, "thickness": 1, "tip": 45}, "must be 0 or the arc angle"),
+        (
+            "clip",
+            {"width": 1, "height": 1, "thickness": 1, "dist": -2, "open_gap": 1},
+            "must not be negative",
+        ),
+        ("tube", {"inner_radius": 1, "thickness": 1}, "missing parameter `length`"),
+    ],
+)
+def test_invalid_shape_parameters_are_explained(kind: str, params: dict, message: str) -> None:
+    messages = [m for _, m in check_params(kind, params)]
+    assert any(message in m for m in messages), messages
+
+
+def test_every_kind_has_a_frame_for_its_default_dofs() -> None:
+    samples = {
+        "rod": {"radius": 2, "length": 10},
+        "hook": {"arc_radius": 10, "arc_angle": 180, "thickness": 1},
+        "hole": {"arc_radius": 10, "thickness": 1},
+        "clip": {"width": 5, "height": 5, "thickness": 1, "dist": 1, "open_gap": 4},
+        "tube": {"inner_radius": 5, "thickness": 1, "length": 20},
+        "edge": {"width": 5, "length": 50, "height": 5},
+        "surface": {"width": 100, "length": 100},
+        "hemisphere": {"radius": 5},
+    }
+    assert set(samples) == set(KINDS)
+    for kind, params in samples.items():
+        primitive = make_primitive("p", kind, params, {})
+        frame = primitive.connector_frames(np.array([d.default for d in primitive.dofs]))
+        rotation = frame[:3, :3]
+        np.testing.assert_allclose(rotation @ rotation.T, np.eye(3), atol=1e-12)  # a rigid frame
