@@ -39,6 +39,7 @@ examples:
   fabhal check programs/mug_hanger.fhl
   fabhal check programs/*.fhl                check several files at once
   fabhal check --json my_hack.fhl | jq .     machine-readable diagnostics
+  fabhal check -D n=3 -D Ring=RingM family.fhl   bind the program's `param`s
 
 exit status: 0 no errors (warnings allowed), 1 errors found, 2 a file could
 not be read (or an internal error).
@@ -67,6 +68,25 @@ class _Parser(argparse.ArgumentParser):
         self.exit(EXIT_USAGE, f"fabhal: error: {message}\n(run `{self.prog} --help` for examples)\n")
 
 
+def _binding(text: str) -> tuple[str, str]:
+    name, sep, value = text.partition("=")
+    if not sep or not name.strip() or not value.strip():
+        raise argparse.ArgumentTypeError(f"expected NAME=VALUE, got {text!r}")
+    return name.strip(), value.strip()
+
+
+def _add_define(command: argparse.ArgumentParser) -> None:
+    command.add_argument(
+        "-D",
+        "--define",
+        action="append",
+        type=_binding,
+        default=[],
+        metavar="NAME=VALUE",
+        help="bind a `param` of the program (repeatable), e.g. -D n=3 -D Ring=RingM",
+    )
+
+
 def build_parser() -> argparse.ArgumentParser:
     formatter = argparse.RawDescriptionHelpFormatter
     parser = _Parser(
@@ -88,6 +108,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     check.add_argument("files", nargs="+", type=Path, metavar="FILE", help=".fhl program(s) to check")
     check.add_argument("--json", action="store_true", help="print diagnostics as a JSON array on stdout")
+    _add_define(check)
     check.set_defaults(run=run_check)
 
     parts = commands.add_parser(
@@ -116,7 +137,7 @@ def run_check(args: argparse.Namespace) -> int:
     collected: list[dict[str, object]] = []
     for path in args.files:
         try:
-            result = api.check(path)
+            result = api.check(path, dict(args.define))
         except InputError as exc:
             collected.extend(to_json(d) for d in exc.diagnostics)
             if not args.json:

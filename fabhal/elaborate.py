@@ -167,7 +167,7 @@ class _Elaborator:
                 raise FabhalError([_duplicate(key, statement.name.span, scope.declared_at[key])])
             scope.aliases[key] = self._endpoint(statement.ref, scope)
         elif isinstance(statement, ast.ConnectStmt):
-            a, b = self._endpoint(statement.a, scope), self._endpoint(statement.b, scope)
+            a, b = self._endpoints(statement.a, statement.b, scope)
             fixed = next((o.span for o in statement.options if o.name == "fixed"), None)
             self.connections.append(Connection(a, b, statement.flip, statement.fixed, statement.span, fixed))
         elif isinstance(statement, ast.TargetStmt):
@@ -198,12 +198,15 @@ class _Elaborator:
 
     def _param(self, decl: ast.ParamDecl, scope: _Scope) -> None:
         candidates = _domain_values(decl.domain, scope)
+        # bound even when rejected below, so one bad value is one diagnostic, not a cascade
+        scope.values[decl.name] = candidates[0]
+        span = decl.span
         if decl.name in self.bindings:
             value: Value | str = _parse_binding(self.bindings[decl.name])
             where = f"-D {decl.name}={self.bindings[decl.name]}"
         elif decl.default is not None:
             value = _domain_item(decl.default, scope)
-            where = f"the default of `{decl.name}`"
+            where, span = f"{decl.name} == {_show(value)}", decl.default.span
         else:
             raise FabhalError(
                 [
@@ -217,8 +220,16 @@ class _Elaborator:
                 ]
             )
         if not _in_domain(value, decl.domain, candidates):
+            shown = ", ".join(_show(c) for c in candidates[:8]) + (", ..." if len(candidates) > 8 else "")
             raise FabhalError(
-                [error("E310", f"{where} is {value}, outside the domain of `{decl.name}`", decl.span, None)]
+                [
+                    error(
+                        "E310",
+                        f"{where} is outside the domain of `{decl.name}`",
+                        span,
+                        f"`{decl.name}` takes one of: {shown}",
+                    )
+                ]
             )
         scope.values[decl.name] = value
 
@@ -335,6 +346,19 @@ class _Elaborator:
 
     # ---- references
 
+    def _endpoints(self, a: ast.Ref, b: ast.Ref, scope: _Scope) -> tuple[Endpoint, Endpoint]:
+        """Both sides, reporting the problems of both."""
+        found: list[Endpoint] = []
+        problems: list[Diagnostic] = []
+        for ref in (a, b):
+            try:
+                found.append(self._endpoint(ref, scope))
+            except FabhalError as exc:
+                problems.extend(exc.diagnostics)
+        if problems:
+            raise FabhalError(problems)
+        return found[0], found[1]
+
     def _endpoint(self, ref: ast.Ref, scope: _Scope) -> Endpoint:
         key = self._key(ref.base, scope)
         if key in scope.aliases:
@@ -404,11 +428,14 @@ class _Elaborator:
                 span,
                 "move the declaration above its first use",
             )
-        known = [*scope.parts, *scope.aliases, *scope.assemblies, *scope.ports]
+        known = [*scope.parts, *scope.aliases, *scope.assemblies]
         suggestion = did_you_mean(key, known)
-        help_text = (
-            f"did you mean `{suggestion}`?" if suggestion else "declare it first, e.g. `s1 = DoubleHook()`"
-        )
+        if suggestion:
+            help_text = f"did you mean `{suggestion}`?"
+        elif known:
+            help_text = f"declared so far: {', '.join(known)}"
+        else:
+            help_text = "declare a part first, e.g. `s1 = DoubleHook()`"
         return error("E302", f"unknown name `{key}`", span, help_text)
 
     def _target(self, statement: ast.TargetStmt, scope: _Scope) -> None:
@@ -491,6 +518,10 @@ def _in_domain(value: Value | str, domain: ast.Domain, candidates: list[Value | 
     if isinstance(value, float):
         return any(isinstance(c, float) and abs(c - value) < 1e-9 for c in candidates)
     return value in candidates
+
+
+def _show(value: Value | str) -> str:
+    return f"{value:g}" if isinstance(value, float) else str(value)
 
 
 def _parse_binding(text: str) -> Value | str:

@@ -33,8 +33,13 @@ def evaluate(expr: ast.Expr, env: Mapping[str, Value]) -> Value:
         if expr.name in env:
             return env[expr.name]
         suggestion = did_you_mean(expr.name, env)
-        known = ", ".join(f"`{n}`" for n in env) or "none here"
-        help_text = f"did you mean `{suggestion}`?" if suggestion else f"the names known here: {known}"
+        known = ", ".join(f"`{n}`" for n in env)
+        if suggestion:
+            help_text = f"did you mean `{suggestion}`?"
+        elif known:
+            help_text = f"the names known here: {known}"
+        else:
+            help_text = "no names are defined here; declare it with `param`"
         raise FabhalError(
             [error("E220", f"unknown name `{expr.name}` in an expression", expr.span, help_text)]
         )

@@ -50,6 +50,9 @@ def _arc_mesh(radius: float, wire: float, sweep_deg: float) -> trimesh.Trimesh:
 
     full = sweep_deg >= 360.0
     n_u = max(int(_ARC_SEGMENTS_PER_TURN * sweep_deg / 360.0), 2)
+    # a polygonal cross-section with the circle's area, so volumes (masses) come out right
+    sides = _WIRE_SEGMENTS
+    wire *= np.sqrt(np.pi / (sides / 2 * np.sin(2 * np.pi / sides)))
     u = np.radians(np.linspace(0.0, sweep_deg, n_u, endpoint=not full))
     v = np.linspace(0.0, 2 * np.pi, _WIRE_SEGMENTS, endpoint=False)
     uu, vv = np.meshgrid(u, v, indexing="ij")
@@ -75,6 +78,32 @@ def _arc_mesh(radius: float, wire: float, sweep_deg: float) -> trimesh.Trimesh:
             j2 = (j + 1) % _WIRE_SEGMENTS
             faces.append([first, j, j2])
             faces.append([last, end + j2, end + j])
+    mesh = trimesh.Trimesh(vertices, np.array(faces), process=True)
+    mesh.fix_normals()
+    return mesh
+
+
+def _lower_half_ball(radius: float, rings: int = 8, sectors: int = 24) -> trimesh.Trimesh:
+    """The ball's lower half (z <= 0), closed by a flat cap at z = 0."""
+    import trimesh
+
+    polar = np.linspace(np.pi / 2, np.pi, rings + 1)[:-1]  # equator down to just above the pole
+    around = np.linspace(0.0, 2 * np.pi, sectors, endpoint=False)
+    pp, aa = np.meshgrid(polar, around, indexing="ij")
+    rim = radius * np.stack([np.sin(pp) * np.cos(aa), np.sin(pp) * np.sin(aa), np.cos(pp)], axis=-1)
+    vertices = np.vstack([rim.reshape(-1, 3), [[0.0, 0.0, -radius], [0.0, 0.0, 0.0]]])
+    pole, centre = len(vertices) - 2, len(vertices) - 1
+    faces = []
+    for i in range(rings - 1):
+        for j in range(sectors):
+            j2 = (j + 1) % sectors
+            a, b, c, d = i * sectors + j, i * sectors + j2, (i + 1) * sectors + j, (i + 1) * sectors + j2
+            faces += [[a, b, c], [b, d, c]]
+    last = (rings - 1) * sectors
+    for j in range(sectors):
+        j2 = (j + 1) % sectors
+        faces.append([last + j, last + j2, pole])
+        faces.append([j2, j, centre])
     mesh = trimesh.Trimesh(vertices, np.array(faces), process=True)
     mesh.fix_normals()
     return mesh
@@ -107,9 +136,8 @@ def primitive_mesh(primitive: Primitive) -> trimesh.Trimesh:
         mesh = trimesh.creation.box(extents=(p["length"], p["width"], p["height"]))
     elif kind == "surface":
         mesh = trimesh.creation.box(extents=(p["length"], p["width"], 0.1))
-    else:  # hemisphere: the lower half ball
-        ball = trimesh.creation.icosphere(subdivisions=2, radius=p["radius"])
-        mesh = ball.slice_plane(plane_origin=(0.0, 0.0, 0.0), plane_normal=(0.0, 0.0, -1.0), cap=True)
+    else:
+        mesh = _lower_half_ball(p["radius"])
     mesh.apply_transform(primitive.base_frame())
     return mesh
 

@@ -73,3 +73,13 @@ def test_check_examples_produce_their_code(code: str, section: str, tmp_path: Pa
     program.write_text(first_example(section))
     result = api.check(program)
     assert code in [d.code for d in result.diagnostics], result.diagnostics
+
+
+def test_primitives_page_names_every_kind_parameter_and_flag() -> None:
+    from fabhal.primitives import KINDS
+
+    page = (REPO / "docs" / "primitives.md").read_text()
+    for spec in KINDS.values():
+        assert f"`{spec.kind}`" in page
+        for name in [p.name for p in spec.params] + [f.name for f in spec.flags]:
+            assert f"`{name}`" in page, name

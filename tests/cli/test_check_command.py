@@ -102,3 +102,17 @@ def test_help_teaches_by_example() -> None:
     assert "examples:" in run.stdout and "fabhal check programs/mug_hanger.fhl" in run.stdout
     top = fabhal("--help")
     assert "examples:" in top.stdout and "check" in top.stdout
+
+
+def test_define_binds_a_parameter(tmp_path: Path) -> None:
+    program = tmp_path / "family.fhl"
+    program.write_text(
+        "param n in 1 .. 4 = 2\nenvironment ceiling = CeilingHook() at (0, 0, 1000)\n"
+        "for i in 1 .. n {\n  r[i] = RingS()\n}\n"
+    )
+    assert fabhal("check", "-D", "n=3", str(program)).returncode == 0
+    bad = fabhal("check", "-D", "n=9", str(program))
+    assert bad.returncode == 1
+    assert "error[E310]: -D n=9 is outside the domain of `n`" in bad.stderr
+    assert bad.stderr.count("error[") == 1  # no cascade from the rejected value
+    assert fabhal("check", "-D", "n", str(program)).returncode == 2
