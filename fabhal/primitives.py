@@ -397,3 +397,91 @@ def make_primitive(
     full_flags = resolve_flags(kind, flags)
     dofs = dofs_of(variant_of(kind, full_flags), full_params, full_flags)
     return Primitive(name, kind, full_params, full_flags, position, rotation, dofs)
+
+
+# ---------------------------------------------------------------- connecting two kinds
+
+# Which kinds may connect: the paper's Table 2 (13 unordered pairs).
+CONNECTABLE: frozenset[frozenset[str]] = frozenset(
+    frozenset(pair)
+    for pair in (
+        ("hook", "hook"),
+        ("hook", "hole"),
+        ("hook", "rod"),
+        ("hook", "tube"),
+        ("hole", "rod"),
+        ("hole", "tube"),
+        ("hemisphere", "surface"),
+        ("edge", "clip"),
+        ("rod", "tube"),
+        ("rod", "clip"),
+        ("tube", "tube"),
+        ("tube", "clip"),
+        ("surface", "surface"),
+    )
+)
+
+
+def partners(kind: str) -> list[str]:
+    """The kinds `kind` can connect to, in table order."""
+    return [k for k in KINDS if frozenset((kind, k)) in CONNECTABLE]
+
+
+@dataclass(frozen=True)
+class Alignment:
+    """world(first connector) @ R(rot) == world(second connector); `flip` changes `flip_axes`."""
+
+    rot: tuple[float, float, float]
+    flip_axes: tuple[int, ...]
+
+
+# One canonical direction per pair (the reference's offsets, reference section
+# c.2); the other direction uses the inverse, so `connect a -- b` and
+# `connect b -- a` mean the same. Keys are kinds, or variants where a variant
+# differs from its kind's offset. Pairs not listed meet with no offset.
+ALIGNMENTS: dict[tuple[str, str], Alignment] = {
+    ("hook", "hook"): Alignment((180.0, 0.0, 90.0), (2,)),
+    ("hook", "hole"): Alignment((180.0, 0.0, 90.0), (2,)),
+    ("rod", "hook"): Alignment((180.0, 0.0, 90.0), (2,)),
+    ("hook", "tube"): Alignment((0.0, 0.0, 90.0), (2,)),
+    ("rod", "hole"): Alignment((180.0, 0.0, 90.0), (2,)),
+    ("RingCtl", "RodCtl"): Alignment((0.0, 0.0, 90.0), (2,)),
+    ("hole", "tube"): Alignment((0.0, 0.0, 90.0), (2,)),
+    ("edge", "clip"): Alignment((0.0, 270.0, 270.0), (1, 2)),
+    ("rod", "tube"): Alignment((0.0, 90.0, 0.0), ()),
+    ("Rod", "TubeCtl"): Alignment((0.0, 0.0, 0.0), ()),
+    ("rod", "clip"): Alignment((0.0, 180.0, 0.0), (1,)),
+    ("surface", "surface"): Alignment((0.0, 0.0, 0.0), (0,)),
+}
+
+
+def _flipped(angle: float) -> float:
+    if angle % 360.0 == 0.0:
+        return 180.0
+    if angle % 360.0 == 180.0:
+        return 0.0
+    return -angle
+
+
+def _lookup(first: Primitive, second: Primitive) -> tuple[Alignment, bool] | None:
+    """The table entry and whether it is written in this order (variants before kinds)."""
+    for a, b in ((first.variant, second.variant), (first.kind, second.kind)):
+        if (a, b) in ALIGNMENTS:
+            return ALIGNMENTS[(a, b)], True
+        if (b, a) in ALIGNMENTS:
+            return ALIGNMENTS[(b, a)], False
+    return None
+
+
+def alignment_offset(first: Primitive, second: Primitive, flip: bool = False) -> Array:
+    """(4, 4) rotation A with world(first connector) @ A == world(second connector)."""
+    found = _lookup(first, second)
+    if found is None:
+        return np.eye(4)
+    entry, forward = found
+    rot = list(entry.rot)
+    if flip:
+        for axis in entry.flip_axes:
+            rot[axis] = _flipped(rot[axis])
+    matrix = frame_matrix((0.0, 0.0, 0.0), rot)
+    return matrix if forward else matrix.T  # a rotation's inverse is its transpose
