@@ -15,7 +15,7 @@ from pathlib import Path
 from typing import Any, NoReturn
 
 from fabhal import __version__
-from fabhal.diagnostics import Diagnostic, render_all, to_json
+from fabhal.diagnostics import Diagnostic, Severity, render_all, to_json
 from fabhal.source import SourceFile
 
 EXIT_OK, EXIT_DIAGNOSTICS, EXIT_USAGE = 0, 1, 2
@@ -196,8 +196,12 @@ def _console() -> Any:
 
 
 def _warning_count(diagnostics: Sequence[Diagnostic]) -> str:
-    warnings = sum(1 for d in diagnostics if not d.is_error)
-    return f" ({warnings} warning{'s' if warnings != 1 else ''})" if warnings else ""
+    counts = []
+    for severity in (Severity.WARNING, Severity.NOTE):
+        n = sum(1 for d in diagnostics if d.severity is severity)
+        if n:
+            counts.append(f"{n} {severity.value}{'s' if n != 1 else ''}")
+    return f" ({', '.join(counts)})" if counts else ""
 
 
 def main(argv: Sequence[str] | None = None) -> int:

@@ -42,7 +42,8 @@ class Endpoint:
     span: Span
 
     def __str__(self) -> str:
-        return f"{self.part}.{self.primitive}"
+        # a bare-primitive environment (`environment bar = Rod(...)`) names its primitive like itself
+        return self.part if self.part == self.primitive else f"{self.part}.{self.primitive}"
 
 
 @dataclass(frozen=True)

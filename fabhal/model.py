@@ -23,7 +23,8 @@ from fabhal.elaborate import Connection, FlatProgram, PartInstance
 from fabhal.kinematics.frames import Array, frame_matrix, invert
 from fabhal.primitives import Dof, Primitive, alignment_offset
 
-# closure residuals put rotation (radians) next to position (mm): 1 rad counts as
+# closure residuals put rotation next to position (mm): the rotation error's
+# matrix entries (R - I, about the angle in radians for small angles) count as
 # this many millimetres, so 1 degree of misalignment weighs like 1.75 mm
 ROTATION_LENGTH_MM = 100.0
 
@@ -93,52 +94,135 @@ class Model:
 
     def part_frames(self, x: Array) -> Array:
         """(n_parts, 4, 4) part-to-world frames for DoF vector x."""
+        return self.forward(x).frames
+
+    def forward(self, x: Array, with_twists: bool = False) -> Forward:
+        """Part frames and, if asked, each DoF's world twist (d frame / d x_i = twist_i @ frame)
+        with the set of parts it moves."""
         frames = np.tile(np.eye(4), (len(self.parts), 1, 1))
         for i, part in enumerate(self.parts):
             if part.environment:
                 frames[i] = frame_matrix(part.position, part.rotation)
+        twists: dict[int, Array] = {}
         for edge in self.tree:
             joint = self.joints[edge.joint]
             parent, child = (joint.a, joint.b) if edge.parent_side == "a" else (joint.b, joint.a)
             offset = joint.offset if edge.parent_side == "a" else joint.offset.T
-            parent_connector = self.connector_frame(parent, x, frames)
+            parent_local = parent.primitive.connector_frames(x[list(parent.dof_indices)])
             child_local = child.primitive.connector_frames(x[list(child.dof_indices)])
-            frames[child.part] = parent_connector @ offset @ invert(child_local)
-        return frames
+            parent_to_world = frames[parent.part]
+            frames[child.part] = parent_to_world @ parent_local @ offset @ invert(child_local)
+            if with_twists:
+                # moving a parent-side DoF turns the child about the parent connector...
+                for i, d_local in _local_derivatives(parent, x):
+                    twists[i] = parent_to_world @ d_local @ invert(parent_to_world @ parent_local)
+                # ...a child-side DoF moves the child against its own connector
+                child_to_world = frames[child.part]
+                for i, d_local in _local_derivatives(child, x):
+                    twists[i] = -child_to_world @ d_local @ invert(child_to_world @ child_local)
+        return Forward(frames, twists)
 
-    def closure_error(self, joint: Joint, x: Array, frames: Array) -> Array:
-        """(4, 4) inv(world(a) @ offset) @ world(b): the identity when the loop closes."""
-        a = self.connector_frame(joint.a, x, frames) @ joint.offset
-        return invert(a) @ self.connector_frame(joint.b, x, frames)
-
-    def closure_residuals(self, x: Array, frames: Array | None = None) -> Array:
-        """(n_closures * 6,): per loop, position error (mm) then rotation error
-        (rad x ROTATION_LENGTH_MM), both in the first connector's frame."""
+    def closure_errors(self, x: Array, frames: Array | None = None) -> Array:
+        """(n_closures, 4, 4): inv(world(a) @ offset) @ world(b), the identity when a loop closes."""
         if frames is None:
             frames = self.part_frames(x)
-        out = np.zeros(6 * len(self.closures))
+        out = np.zeros((len(self.closures), 4, 4))
         for k, j in enumerate(self.closures):
-            error = self.closure_error(self.joints[j], x, frames)
-            out[6 * k : 6 * k + 3] = error[:3, 3]
-            out[6 * k + 3 : 6 * k + 6] = _rotation_vector(error[:3, :3]) * ROTATION_LENGTH_MM
+            joint = self.joints[j]
+            a = self.connector_frame(joint.a, x, frames) @ joint.offset
+            out[k] = invert(a) @ self.connector_frame(joint.b, x, frames)
         return out
 
+    def closure_residuals(self, x: Array, frames: Array | None = None) -> Array:
+        """(n_closures * 12,): per loop the position error (mm) and the rotation
+        error E_R - I (x ROTATION_LENGTH_MM), in the first connector's frame.
+        Zero exactly when every loop closes; linear in the error frame, so its
+        Jacobian is exact."""
+        errors = self.closure_errors(x, frames)
+        return _residual_of(errors).ravel()
 
-def _rotation_vector(rotation: Array) -> Array:
-    """Axis-angle vector (radians) of a rotation matrix; exact near 0 and near pi."""
-    cos_angle = np.clip((np.trace(rotation) - 1.0) / 2.0, -1.0, 1.0)
-    angle = float(np.arccos(cos_angle))
-    skew = np.array(
-        [rotation[2, 1] - rotation[1, 2], rotation[0, 2] - rotation[2, 0], rotation[1, 0] - rotation[0, 1]]
-    )
-    if angle < 1e-8:
-        return skew / 2.0
-    if np.pi - angle < 1e-6:  # near a half turn the skew part vanishes; use the symmetric part
-        axis = np.sqrt(np.clip((np.diag(rotation) + 1.0) / 2.0, 0.0, None))
-        signs = np.sign(skew) if np.any(skew) else np.ones(3)
-        axis = axis * np.where(signs == 0, 1.0, signs)
-        return axis / np.linalg.norm(axis) * angle
-    return skew * angle / (2.0 * np.sin(angle))
+    def closure_jacobian(self, x: Array) -> Array:
+        """(n_closures * 12, n_dofs) exact derivative of `closure_residuals`."""
+        fwd = self.forward(x, with_twists=True)
+        moved = self._moved_parts()
+        jac = np.zeros((len(self.closures), 12, len(self.variables)))
+        for k, j in enumerate(self.closures):
+            joint = self.joints[j]
+            world_a = self.connector_frame(joint.a, x, fwd.frames) @ joint.offset
+            world_b = self.connector_frame(joint.b, x, fwd.frames)
+            inv_a = invert(world_a)
+            for i, twist in fwd.twists.items():
+                a_moves, b_moves = joint.a.part in moved[i], joint.b.part in moved[i]
+                if a_moves != b_moves:
+                    change = twist if b_moves else -twist
+                    jac[k, :, i] = _residual_change(inv_a @ change @ world_b)
+            for side, sign in ((joint.a, -1.0), (joint.b, 1.0)):
+                to_world = fwd.frames[side.part]
+                local = side.primitive.connector_frames(x[list(side.dof_indices)])
+                for i, d_local in _local_derivatives(side, x):
+                    twist = to_world @ d_local @ invert(to_world @ local)
+                    jac[k, :, i] += sign * _residual_change(inv_a @ twist @ world_b)
+        return jac.reshape(len(self.closures) * 12, len(self.variables))
+
+    def _moved_parts(self) -> dict[int, set[int]]:
+        """For each tree DoF, the parts that move with it (the child's subtree)."""
+        children: dict[int, list[int]] = {}
+        child_of_edge: dict[int, int] = {}
+        for edge in self.tree:
+            joint = self.joints[edge.joint]
+            parent, child = (joint.a, joint.b) if edge.parent_side == "a" else (joint.b, joint.a)
+            children.setdefault(parent.part, []).append(child.part)
+            child_of_edge[edge.joint] = child.part
+        moved: dict[int, set[int]] = {}
+        for edge in self.tree:
+            subtree, stack = set(), [child_of_edge[edge.joint]]
+            while stack:
+                part = stack.pop()
+                subtree.add(part)
+                stack.extend(children.get(part, []))
+            joint = self.joints[edge.joint]
+            for i in joint.a.dof_indices + joint.b.dof_indices:
+                moved[i] = subtree
+        return moved
+
+
+@dataclass(frozen=True)
+class Forward:
+    frames: Array  # (n_parts, 4, 4)
+    twists: dict[int, Array]  # tree DoF index -> (4, 4) world twist
+
+
+_STEP = 1e-6  # central differences of one connector formula: error ~1e-12 relative
+
+
+def _local_derivatives(side: Side, x: Array) -> list[tuple[int, Array]]:
+    """(DoF index, d(B @ C)/dx) per DoF of a side: the derivative of the side's
+    connector frame in its part, to ~1e-10 (central differences of the
+    closed-form formula, which is smooth)."""
+    values = x[list(side.dof_indices)]
+    k = len(values)
+    if k == 0:
+        return []
+    probes = np.repeat(values[None, :], 2 * k, axis=0)
+    for d in range(k):
+        probes[2 * d, d] += _STEP
+        probes[2 * d + 1, d] -= _STEP
+    frames = side.primitive.connector_frames(probes)  # (B @ C) at each probe
+    return [(side.dof_indices[d], (frames[2 * d] - frames[2 * d + 1]) / (2 * _STEP)) for d in range(k)]
+
+
+def _residual_change(d_error: Array) -> Array:
+    """(4, 4) change of an error frame -> (12,) change of its residual."""
+    return np.concatenate([d_error[:3, 3], d_error[:3, :3].ravel() * ROTATION_LENGTH_MM])
+
+
+def _residual_of(errors: Array) -> Array:
+    """(n, 4, 4) error frames -> (n, 12) residuals: position, then (R - I) x length scale."""
+    n = errors.shape[0]
+    out = np.empty((n, 12))
+    out[:, :3] = errors[:, :3, 3]
+    out[:, 3:] = (errors[:, :3, :3] - np.eye(3)).reshape(n, 9) * ROTATION_LENGTH_MM
+    return out
 
 
 def build_model(program: FlatProgram) -> Model:

@@ -97,7 +97,7 @@ target mug.hook at (0, 0, 50)
     assert pairs == [
         ("chain.s[2].hook2", "chain.s[1].hook1"),
         ("chain.s[3].hook2", "chain.s[2].hook1"),
-        ("chain.s[1].hook2", "rod.rod"),
+        ("chain.s[1].hook2", "rod"),
         ("mug.hook", "chain.s[3].hook1"),
     ]
 

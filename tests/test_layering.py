@@ -23,6 +23,8 @@ ORDER = [
     "library",
     "meshes",
     "elaborate",
+    "model",
+    "check",
     "report",
     "api",
     "cli",

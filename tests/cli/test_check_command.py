@@ -85,7 +85,7 @@ def test_imports_resolve_relative_to_the_importing_file(tmp_path: Path) -> None:
     (tmp_path / "lib").mkdir()
     (tmp_path / "lib" / "chain.fhl").write_text('import "../p.fhl"\n')  # a cycle is fine
     program = tmp_path / "p.fhl"
-    program.write_text('import "lib/chain.fhl"\n')
+    program.write_text('import "lib/chain.fhl"\n' + (REPO / "programs" / "mug_hanger.fhl").read_text())
     run = fabhal("check", str(program))
     assert run.returncode == 0, run.stderr
 
@@ -107,8 +107,9 @@ def test_help_teaches_by_example() -> None:
 def test_define_binds_a_parameter(tmp_path: Path) -> None:
     program = tmp_path / "family.fhl"
     program.write_text(
-        "param n in 1 .. 4 = 2\nenvironment ceiling = CeilingHook() at (0, 0, 1000)\n"
-        "for i in 1 .. n {\n  r[i] = RingS()\n}\n"
+        "param n in 1 .. 4 = 2\nenvironment ceiling = CeilingHook() at (0, 0, 1000)\nlink = ceiling.hook\n"
+        "for i in 1 .. n {\n  s[i] = DoubleHook()\n  connect s[i].hook2 -- link\n  link = s[i].hook1\n}\n"
+        "target s[1].hook1 at (0, 0, 900)\n"
     )
     assert fabhal("check", "-D", "n=3", str(program)).returncode == 0
     bad = fabhal("check", "-D", "n=9", str(program))

@@ -1,0 +1,304 @@
+"""Can every loop close? First a quick reject by the polygon inequality (a loop
+of rigid links closes only if no link is longer than all the others together),
+then a closure solve from up to 16 seeded starts.
+
+A part on a loop is a link between the two connectors the loop passes
+through; its length can vary only within the range those connectors reach
+(sampled over their degrees of freedom). All environments are one rigid link.
+"""
+
+from __future__ import annotations
+
+import itertools
+from dataclasses import dataclass
+
+import numpy as np
+
+from fabhal.check.context import CheckContext
+from fabhal.diagnostics import Diagnostic, error
+from fabhal.kinematics.frames import Array, frame_matrix
+from fabhal.model import Model, Side
+
+ENVIRONMENT = -1  # all environment parts act as one rigid link
+MAX_STARTS = 16
+CLOSED_MM = 1e-6  # a loop counts as closed when every residual is below this (mm, or mm-equivalent)
+_SLACK_MM = 1e-3  # tolerance on link ranges, as the reference
+
+
+@dataclass(frozen=True)
+class Loop:
+    closing_joint: int
+    parts: tuple[int, ...]  # in order around the loop, ENVIRONMENT for the ground
+    joints: tuple[int, ...]  # joints around the loop, the closing one last
+
+
+@dataclass(frozen=True)
+class Link:
+    part: int
+    low: float
+    high: float
+    label: str
+
+
+@dataclass(frozen=True)
+class LoopReport:
+    """What the cycle check found: the DoFs that close every loop (or the best try)."""
+
+    x: Array
+    closed: bool
+    worst_position_mm: float
+    worst_angle_deg: float
+
+
+def find_loops(model: Model) -> list[Loop]:
+    """One loop per closing joint: its tree paths to the common ancestor."""
+    parent: dict[int, tuple[int, int]] = {}  # child part -> (parent part, joint)
+    for edge in model.tree:
+        joint = model.joints[edge.joint]
+        up, down = (joint.a, joint.b) if edge.parent_side == "a" else (joint.b, joint.a)
+        parent[down.part] = (_node(model, up.part), edge.joint)
+
+    def path(part: int) -> list[tuple[int, int]]:
+        """(node, joint to its parent) from part up to the environment."""
+        out = []
+        node = _node(model, part)
+        while node != ENVIRONMENT:
+            up, joint = parent[node]
+            out.append((node, joint))
+            node = up
+        return out
+
+    loops = []
+    for j in model.closures:
+        joint = model.joints[j]
+        up_a, up_b = path(joint.a.part), path(joint.b.part)
+        nodes_b = [n for n, _ in up_b]
+        # climb from a until we meet b's path (or the environment)
+        climb_a: list[tuple[int, int]] = []
+        meet = ENVIRONMENT
+        for node, via in up_a:
+            if node in nodes_b:
+                meet = node
+                break
+            climb_a.append((node, via))
+        climb_b: list[tuple[int, int]] = []
+        for node, via in up_b:
+            if node == meet:
+                break
+            climb_b.append((node, via))
+        parts = [n for n, _ in climb_a] + [meet] + [n for n, _ in reversed(climb_b)]
+        joints = [e for _, e in climb_a] + [e for _, e in reversed(climb_b)] + [j]
+        loops.append(Loop(j, tuple(parts), tuple(joints)))
+    return loops
+
+
+def _node(model: Model, part: int) -> int:
+    return ENVIRONMENT if model.parts[part].environment else part
+
+
+# ---------------------------------------------------------------- link ranges
+
+
+def _samples(side: Side) -> Array:
+    """Connector positions of a primitive (in its part frame) over a grid of its DoFs."""
+    axes = []
+    for dof in side.primitive.dofs:
+        if dof.periodic:
+            axes.append(np.linspace(0.0, 360.0, 12, endpoint=False))
+        else:
+            axes.append(np.linspace(dof.low, dof.high, 7))
+    grid = np.array(list(itertools.product(*axes)), dtype=float)
+    return side.primitive.connector_frames(grid)[:, :3, 3]
+
+
+def _positions(model: Model, side: Side) -> Array:
+    points = _samples(side)
+    part = model.parts[side.part]
+    if part.environment:  # environments are one rigid body: compare in world coordinates
+        frame = frame_matrix(part.position, part.rotation)
+        points = points @ frame[:3, :3].T + frame[:3, 3]
+    return points
+
+
+def _distance_range(first: Array, second: Array, same: bool) -> tuple[float, float]:
+    distances = np.linalg.norm(first[:, None, :] - second[None, :, :], axis=-1)
+    return (0.0 if same else float(distances.min())), float(distances.max())
+
+
+def loop_links(model: Model, loop: Loop) -> list[Link]:
+    """Each link's reach: between the connectors where the loop enters and leaves it."""
+    links = []
+    sides_by_node: dict[int, list[Side]] = {}
+    for j in loop.joints:
+        joint = model.joints[j]
+        for side in (joint.a, joint.b):
+            node = _node(model, side.part)
+            if node in loop.parts:
+                sides_by_node.setdefault(node, []).append(side)
+    for node in loop.parts:
+        entry, exit_ = _entry_exit(sides_by_node.get(node, []))
+        if entry is None or exit_ is None:
+            continue
+        same = entry.part == exit_.part and entry.primitive.name == exit_.primitive.name
+        low, high = _cached_range(model, entry, exit_, same)
+        name = "the environment" if node == ENVIRONMENT else f"`{model.parts[node].name}`"
+        links.append(Link(node, low, high, f"{name} ({entry.primitive.name} to {exit_.primitive.name})"))
+    return links
+
+
+def _entry_exit(sides: list[Side]) -> tuple[Side | None, Side | None]:
+    if len(sides) < 2:
+        return None, None
+    return sides[0], sides[1]
+
+
+def _cached_range(model: Model, entry: Side, exit_: Side, same: bool) -> tuple[float, float]:
+    if model.parts[entry.part].environment or model.parts[exit_.part].environment:
+        return _distance_range(_positions(model, entry), _positions(model, exit_), same)
+    spec = model.parts[entry.part].spec
+    key = (spec.type_name, tuple(sorted(spec.arguments.items())), entry.primitive.name, exit_.primitive.name)
+    return _part_range(key, entry, exit_, same)
+
+
+_RANGES: dict[tuple, tuple[float, float]] = {}  # part type + arguments + primitives -> reach
+
+
+def _part_range(key: tuple, entry: Side, exit_: Side, same: bool) -> tuple[float, float]:
+    if key not in _RANGES:
+        _RANGES[key] = _distance_range(_samples(entry), _samples(exit_), same)
+    return _RANGES[key]
+
+
+def polygon_feasible(links: list[Link]) -> bool:
+    """The quick reject as a linear program: is there a length e_k in each link's
+    range with e_k <= sum of the others for every k? (scipy's HiGHS)"""
+    from scipy.optimize import linprog
+
+    n = len(links)
+    if n < 2:
+        return True
+    a_ub = 2.0 * np.eye(n) - np.ones((n, n))
+    bounds = [(max(link.low - _SLACK_MM, 0.0), link.high + _SLACK_MM) for link in links]
+    result = linprog(np.zeros(n), A_ub=a_ub, b_ub=np.zeros(n), bounds=bounds, method="highs")
+    return bool(result.status == 0)
+
+
+# ---------------------------------------------------------------- closure solve
+
+
+def close_loops(model: Model, seed: int = 0, starts: int = MAX_STARTS) -> LoopReport:
+    """Find DoFs that close every loop: least squares from the defaults, then from
+    seeded random starts; stops at the first start that closes them all."""
+    from scipy.optimize import least_squares
+
+    x0 = model.x_default()
+    if not model.closures:
+        return LoopReport(x0, True, 0.0, 0.0)
+    free = np.array(
+        sorted({i for loop in find_loops(model) for j in loop.joints for i in _dof_indices(model, j)})
+    )
+    low, high = model.bounds()
+    rng = np.random.default_rng(seed)
+
+    def full(values: Array) -> Array:
+        x = x0.copy()
+        x[free] = values
+        return x
+
+    def residual(values: Array) -> Array:
+        return model.closure_residuals(full(values))
+
+    def jacobian(values: Array) -> Array:
+        return model.closure_jacobian(full(values))[:, free]
+
+    best_x, best_cost = x0, np.inf
+    for attempt in range(starts):
+        start = x0[free] if attempt == 0 else _random_start(rng, low[free], high[free])
+        fit = least_squares(
+            residual,
+            start,
+            jac=jacobian,
+            bounds=(low[free], high[free]),
+            method="trf",
+            max_nfev=200,
+            xtol=1e-12,
+        )
+        cost = float(np.abs(fit.fun).max())
+        if cost < best_cost:
+            best_cost = cost
+            best_x = x0.copy()
+            best_x[free] = fit.x
+        if cost < CLOSED_MM:
+            break
+    return _report(model, best_x, best_cost < CLOSED_MM)
+
+
+def _dof_indices(model: Model, joint: int) -> tuple[int, ...]:
+    j = model.joints[joint]
+    return j.a.dof_indices + j.b.dof_indices
+
+
+def _random_start(rng: np.random.Generator, low: Array, high: Array) -> Array:
+    lo = np.where(np.isfinite(low), low, 0.0)
+    hi = np.where(np.isfinite(high), high, 360.0)
+    return rng.uniform(lo, hi)
+
+
+def _report(model: Model, x: Array, closed: bool) -> LoopReport:
+    errors = model.closure_errors(x)
+    position = float(np.linalg.norm(errors[:, :3, 3], axis=1).max())
+    cosines = np.clip((np.trace(errors[:, :3, :3], axis1=1, axis2=2) - 1.0) / 2.0, -1.0, 1.0)
+    return LoopReport(x, closed, position, float(np.degrees(np.arccos(cosines)).max()))
+
+
+# ---------------------------------------------------------------- the rule
+
+
+def check(ctx: CheckContext) -> tuple[list[Diagnostic], LoopReport | None]:
+    model = ctx.model
+    loops = find_loops(model)
+    problems = []
+    for loop in loops:
+        links = loop_links(model, loop)
+        if not polygon_feasible(links):
+            problems.append(_too_long(ctx, loop, links))
+    if problems or not loops:
+        return problems, None
+    report = close_loops(model, ctx.seed)
+    if not report.closed:
+        loop = loops[0]
+        joint = model.joints[loop.closing_joint]
+        problems.append(
+            error(
+                "E421",
+                f"this connection closes a loop that cannot close: {_loop_text(ctx, loop)}",
+                joint.connection.span,
+                f"the best of {MAX_STARTS} tries leaves a gap of {report.worst_position_mm:.1f} mm and "
+                f"{report.worst_angle_deg:.1f} degrees; try `flip` on a connection of the loop, "
+                "or parts of other lengths",
+            )
+        )
+    return problems, report
+
+
+def _loop_text(ctx: CheckContext, loop: Loop) -> str:
+    """The loop's parts in order, starting from the environment when it is on the loop."""
+    names = ["environment" if n == ENVIRONMENT else ctx.model.parts[n].name for n in loop.parts]
+    if "environment" in names:
+        start = names.index("environment")
+        names = names[start:] + names[:start]
+    return " -> ".join([*names, names[0]])
+
+
+def _too_long(ctx: CheckContext, loop: Loop, links: list[Link]) -> Diagnostic:
+    total_high = sum(link.high for link in links)
+    longest = max(links, key=lambda link: link.low - (total_high - link.high))
+    rest = total_high - longest.high
+    joint = ctx.model.joints[loop.closing_joint]
+    return error(
+        "E420",
+        f"this connection closes a loop whose parts are too short: {_loop_text(ctx, loop)}",
+        joint.connection.span,
+        f"{longest.label} spans at least {longest.low:.1f} mm, but the rest of the loop reaches "
+        f"at most {rest:.1f} mm; add parts (or longer ones) to the loop",
+    )

@@ -1,0 +1,218 @@
+"""Does it fit, and is there room? Openings against what goes through them,
+and the length (or area, or arc) each connection uses up on a primitive.
+
+Sizes are compared as diameters or widths, in millimetres, and the messages
+quote both numbers.
+"""
+
+from __future__ import annotations
+
+import math
+
+from fabhal.check.context import CheckContext, other_end
+from fabhal.diagnostics import Diagnostic, Severity, error
+from fabhal.elaborate import Endpoint
+from fabhal.primitives import Primitive
+
+_LOOPS = ("hook", "hole")
+# a flexible wire hook or ring (`flex: true`) can be bent open this much further
+FLEX_STRETCH = 0.05
+
+
+def opening(p: Primitive) -> float:
+    """Inside diameter of a hook or hole: what can pass through it."""
+    return 2.0 * (p.params["arc_radius"] - p.params["thickness"])
+
+
+def across(p: Primitive) -> float:
+    """How thick it is where another part goes around it (mm across)."""
+    if p.kind in _LOOPS:
+        return 2.0 * p.params["thickness"]
+    if p.kind == "rod":
+        return 2.0 * p.params["radius"]
+    if p.kind == "tube":
+        return 2.0 * (p.params["inner_radius"] + p.params["thickness"])
+    if p.kind == "edge":
+        return p.params["height"]
+    if p.kind == "clip":
+        return p.params["width"]
+    if p.kind == "hemisphere":
+        return 2.0 * p.params["radius"]
+    return 0.0
+
+
+def _loop_word(p: Primitive) -> str:
+    return "hook" if p.kind == "hook" else "ring"
+
+
+def bent_open(a: Primitive, b: Primitive) -> tuple[str, str] | None:
+    """(message, help) when a flexible loop fits only once bent open a little."""
+    for loop, other in ((a, b), (b, a)):
+        if loop.kind in _LOOPS and loop.flags.get("flex") and other.kind != "tube":
+            needed = across(other)
+            if opening(loop) <= needed < opening(loop) * (1 + FLEX_STRETCH):
+                return (
+                    f"{_loop_word(loop)} opening {opening(loop):g} mm is "
+                    f"{needed - opening(loop):.1g} mm narrower than the {other.kind} ({needed:g} mm across)",
+                    "a flexible wire hook can be bent open that far",
+                )
+    return None
+
+
+def fit_problem(a: Primitive, b: Primitive) -> tuple[str, str] | None:
+    """(message, help) when a and b cannot physically meet, else None."""
+    kinds = {a.kind, b.kind}
+    for loop, other in ((a, b), (b, a)):
+        if loop.kind not in _LOOPS:
+            continue
+        if other.kind == "tube" and other.variant == "TubeCtl":
+            continue  # threaded through the core: checked as the core's size below
+        needed = across(other)
+        stretch = 1 + FLEX_STRETCH if loop.flags.get("flex") else 1.0
+        if opening(loop) * stretch <= needed:
+            what = f"the {other.kind}'s {'wire' if other.kind in _LOOPS else 'body'}"
+            return (
+                f"{_loop_word(loop)} opening {opening(loop):g} mm < {what} {needed:g} mm across",
+                f"use a {_loop_word(loop)} with a wider opening, or a thinner {other.kind}",
+            )
+    for tube, other in ((a, b), (b, a)):
+        if tube.kind != "tube" or other.kind not in ("rod", "tube", *_LOOPS):
+            continue
+        core = 2.0 * tube.params["inner_radius"]
+        goes_inside = other.kind == "rod" or tube.variant == "TubeCtl"
+        if goes_inside and other.kind != "tube" and across(other) >= core:
+            return (
+                f"the tube's core {core:g} mm < the {other.kind} {across(other):g} mm across",
+                "use a thinner rod (or wire), or a tube with a wider core",
+            )
+    if kinds == {"tube"}:
+        inner = [2.0 * p.params["inner_radius"] for p in (a, b)]
+        outer = [across(p) for p in (a, b)]
+        if not (outer[0] < inner[1] or outer[1] < inner[0]):
+            return (
+                f"neither tube fits inside the other (outside {outer[0]:g} and {outer[1]:g} mm, "
+                f"cores {inner[0]:g} and {inner[1]:g} mm)",
+                "one tube must be thinner than the other's core",
+            )
+    for clip, other in ((a, b), (b, a)):
+        if clip.kind == "clip" and other.kind in ("rod", "tube", "edge"):
+            gap = clip.params["open_gap"]
+            if across(other) >= gap:
+                return (
+                    f"clip opening {gap:g} mm < the {other.kind} {across(other):g} mm across",
+                    "use a clip that opens wider",
+                )
+    for surface, dome in ((a, b), (b, a)):
+        if surface.kind == "surface" and dome.kind == "hemisphere":
+            size = min(surface.params["width"], surface.params["length"])
+            if size < across(dome):
+                return (
+                    f"surface {size:g} mm wide < the hemisphere {across(dome):g} mm across",
+                    "rest it on a larger surface",
+                )
+    if kinds == {"surface"}:
+        dims = [sorted((p.params["width"], p.params["length"])) for p in (a, b)]
+        fits = all(x <= y for x, y in zip(dims[0], dims[1], strict=True)) or all(
+            x <= y for x, y in zip(dims[1], dims[0], strict=True)
+        )
+        if not fits:
+            return (
+                f"neither surface fits on the other ({dims[0][0]:g} x {dims[0][1]:g} mm and "
+                f"{dims[1][0]:g} x {dims[1][1]:g} mm)",
+                "the smaller surface must fit within the larger one",
+            )
+    return None
+
+
+def room(p: Primitive) -> tuple[float, str] | None:
+    """(capacity, unit) of what connections use up on p, or None if unlimited."""
+    if p.kind in ("rod", "tube", "edge"):
+        return p.params["length"], "mm"
+    if p.kind == "surface":
+        return p.params["width"] * p.params["length"], "mm2"
+    if p.kind == "hook":
+        rho = p.params["arc_radius"] - p.params["thickness"]
+        return rho * math.radians(p.params["arc_angle"]), "mm"
+    if p.kind == "hole":
+        return 2.0 * math.pi * (p.params["arc_radius"] - p.params["thickness"]), "mm"
+    return None
+
+
+def usage(host: Primitive, guest: Primitive) -> float:
+    """What `guest` takes of `host`'s room."""
+    if host.kind in ("rod", "tube", "edge"):
+        if guest.kind in _LOOPS:
+            return 2.0 * guest.params["thickness"]
+        if guest.kind == "clip":
+            return guest.params["width"]
+        if guest.kind == "tube" and host.kind == "rod":
+            return guest.params["length"]
+        return 0.0
+    if host.kind == "surface":
+        if guest.kind == "hemisphere":
+            return across(guest) ** 2
+        guest_area = guest.params["width"] * guest.params["length"] if guest.kind == "surface" else 0.0
+        host_area = host.params["width"] * host.params["length"]
+        return guest_area if guest_area <= host_area else 0.0  # the larger surface carries the smaller
+    return across(guest)  # on a hook or ring: the thickness of what hangs there
+
+
+def check(ctx: CheckContext) -> list[Diagnostic]:
+    problems = []
+    for connection in ctx.program.connections:
+        a, b = ctx.primitive(connection.a), ctx.primitive(connection.b)
+        pair = f"{ctx.describe(connection.a)} and {ctx.describe(connection.b)}"
+        found = fit_problem(a, b)
+        if found is not None:
+            message, help_text = found
+            problems.append(error("E404", f"{pair} do not fit: {message}", connection.span, help_text))
+            continue
+        tight = bent_open(a, b)
+        if tight is not None:
+            message, help_text = tight
+            problems.append(
+                Diagnostic(
+                    Severity.NOTE, "N416", f"{pair} fit tightly: {message}", connection.span, help_text
+                )
+            )
+    problems.extend(_room(ctx))
+    return problems
+
+
+def _room(ctx: CheckContext) -> list[Diagnostic]:
+    problems = []
+    done: set[tuple[str, str]] = set()
+    for connection in ctx.program.connections:
+        for end in (connection.a, connection.b):
+            key = (end.part, end.primitive)
+            host = ctx.primitive(end)
+            capacity = room(host)
+            if key in done or capacity is None:
+                continue
+            done.add(key)
+            problems.extend(_fill(ctx, end, host, capacity))
+    return problems
+
+
+def _fill(ctx: CheckContext, end: Endpoint, host: Primitive, capacity: tuple[float, str]) -> list[Diagnostic]:
+    total, unit = capacity
+    used = 0.0
+    occupants: list[str] = []
+    for connection in ctx.connections_on(end):
+        guest_end = other_end(connection, end)
+        need = usage(host, ctx.primitive(guest_end))
+        # one part alone always finds its place (a clip may grip a stub narrower than itself)
+        if occupants and used + need > total + 1e-9:
+            taken = ", ".join(occupants) if occupants else "nothing yet"
+            return [
+                error(
+                    "E405",
+                    f"no room on {ctx.describe(end)}: `{guest_end}` needs {need:g} {unit}, "
+                    f"{total - used:g} of its {total:g} {unit} are left",
+                    connection.span,
+                    f"already taken: {taken}; use a longer (or larger) {host.kind}, or fewer parts on it",
+                )
+            ]
+        used += need
+        occupants.append(f"`{guest_end}` {need:g} {unit}")
+    return []

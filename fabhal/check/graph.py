@@ -1,0 +1,109 @@
+"""The shape of the assembly: one target, an environment to hang from, every
+part connected, the target reachable from an environment."""
+
+from __future__ import annotations
+
+from fabhal.check.context import CheckContext
+from fabhal.diagnostics import Diagnostic, error, warning
+from fabhal.source import Span
+
+
+def check(ctx: CheckContext) -> list[Diagnostic]:
+    program, model = ctx.program, ctx.model
+    problems: list[Diagnostic] = []
+    first_line = Span(program.file, 1, 1, 1, 1)
+    if not program.targets:
+        problems.append(
+            error(
+                "E406",
+                "the program has no target",
+                first_line,
+                "say what the hack holds and where: `target mug.hook at (0, 0, 50) rot (0, 0, 0)`",
+            )
+        )
+    for extra in program.targets[1:]:
+        problems.append(
+            error(
+                "E407",
+                f"a second target (the first is on line {program.targets[0].span.line})",
+                extra.span,
+                "a program holds exactly one target; remove one `target` line",
+            )
+        )
+    if not any(p.environment for p in program.parts):
+        problems.append(
+            error(
+                "E408",
+                "the program has no environment to hang from",
+                first_line,
+                "add one, e.g. `environment rod = Rod(length: 500, radius: 2) at (0, 0, 200) "
+                "rot (90, 0, 90)`",
+            )
+        )
+        return problems
+    connected = {end.part for c in program.connections for end in (c.a, c.b)}
+    target_part = program.targets[0].part if program.targets else None
+    unplaced = {model.parts[i].name for i in model.unplaced}
+    floating: list[str] = []
+    for part in program.parts:
+        if part.environment:
+            continue
+        if part.name not in connected:
+            if part.name == target_part:
+                problems.append(
+                    error(
+                        "E410",
+                        f"the target `{part.name}` is not connected to anything",
+                        part.span,
+                        "connect one of its primitives, e.g. "
+                        f"`connect {part.name}.{part.spec.primitives[0].name} -- other.primitive`",
+                    )
+                )
+            else:
+                problems.append(
+                    warning(
+                        "W413", f"`{part.name}` is never connected", part.span, "connect it, or remove it"
+                    )
+                )
+        elif part.name in unplaced:
+            floating.append(part.name)
+    if floating:
+        first = program.part(floating[0])
+        names = ", ".join(f"`{n}`" for n in floating)
+        code, what = ("E410", "the target hangs") if target_part in floating else ("E409", "these parts hang")
+        problems.append(
+            error(
+                code,
+                f"{what} from nothing: {names} connect only to each other, not to an environment",
+                first.span,
+                "connect one of them to an environment (or to a part that is)",
+            )
+        )
+    problems.extend(_only_on_target(ctx, target_part))
+    return problems
+
+
+def _only_on_target(ctx: CheckContext, target: str | None) -> list[Diagnostic]:
+    if target is None:
+        return []
+    problems = []
+    for part in ctx.program.parts:
+        if part.environment or part.name == target:
+            continue
+        neighbours = {
+            end.part
+            for c in ctx.program.connections
+            if part.name in (c.a.part, c.b.part)
+            for end in (c.a, c.b)
+            if end.part != part.name
+        }
+        if neighbours == {target}:
+            problems.append(
+                warning(
+                    "W411",
+                    f"`{part.name}` is connected only to the target `{target}`",
+                    part.span,
+                    "it adds weight but holds nothing up; connect it toward an environment",
+                )
+            )
+    return problems

@@ -1,0 +1,74 @@
+"""Every rule of connecting: a minimal program that breaks it, its code, and the
+rendered diagnostic (golden files, refreshed with FABHAL_UPDATE_GOLDEN=1)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from fabhal import api
+from fabhal.diagnostics import render_all
+from tests.conftest import REPO, assert_golden
+
+GOLDEN = Path(__file__).parent / "golden"
+CASES = sorted(GOLDEN.glob("*.fhl"))
+EXPECTED = {
+    "forbidden_pair": ["E401"],
+    "both_closed": ["E402"],
+    "clip_used_twice": ["E403"],
+    "hook_too_small": ["E404"],
+    "rod_full": ["E405"],
+    "no_target": ["E406"],
+    "two_targets": ["E407"],
+    "no_environment": ["E408"],
+    "floating_parts": ["E409"],
+    "target_not_held": ["E410"],
+    "only_on_target": ["W411"],
+    "unused_part": ["W413"],
+    "connected_to_itself": ["E414"],
+    "connected_twice": ["E415"],
+    "tight_fit": ["N416"],
+    "loop_too_short": ["E420"],
+    "loop_cannot_close": ["E421"],
+}
+
+
+def test_every_case_has_expected_codes() -> None:
+    assert {c.stem for c in CASES} == set(EXPECTED)
+
+
+@pytest.mark.parametrize("case", CASES, ids=[c.stem for c in CASES])
+def test_rule(case: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.chdir(GOLDEN)
+    result = api.check(Path(case.name))
+    assert [d.code for d in result.diagnostics] == EXPECTED[case.stem]
+    assert all(d.span is not None and d.span.file == case.name for d in result.diagnostics)
+    assert_golden(render_all(result.diagnostics, result.sources) + "\n", case.with_suffix(".txt"))
+
+
+GALLERY = sorted((REPO / "programs").rglob("*.fhl"))
+
+
+@pytest.mark.parametrize("program", GALLERY, ids=[p.stem for p in GALLERY])
+def test_every_gallery_program_checks_clean(program: Path) -> None:
+    result = api.check(program)
+    assert result.ok
+    # notes are fine (a tight but workable fit); warnings and errors are not
+    assert [d for d in result.diagnostics if d.severity.value != "note"] == []
+
+
+def test_loops_close_to_a_micron_when_the_check_passes() -> None:
+    result = api.check(REPO / "programs" / "bird_feeder.fhl")
+    assert result.report is not None and result.report.loops is not None
+    loops = result.report.loops
+    assert loops.closed and loops.worst_position_mm < 1e-6  # the closure solve's own stopping bar
+
+
+def test_order_of_a_connection_does_not_matter(tmp_path: Path) -> None:
+    text = (REPO / "programs" / "bird_feeder.fhl").read_text()
+    swapped = text.replace("connect hanger.hook3 -- s2.hook2", "connect s2.hook2 -- hanger.hook3")
+    assert swapped != text
+    program = tmp_path / "swapped.fhl"
+    program.write_text(swapped)
+    assert api.check(program).ok
