@@ -4,7 +4,7 @@ part connected, the target reachable from an environment."""
 from __future__ import annotations
 
 from fabhal.check.context import CheckContext
-from fabhal.diagnostics import Diagnostic, error, warning
+from fabhal.diagnostics import Diagnostic, Severity, error, warning
 from fabhal.source import Span
 
 
@@ -80,6 +80,35 @@ def check(ctx: CheckContext) -> list[Diagnostic]:
             )
         )
     problems.extend(_only_on_target(ctx, target_part))
+    problems.extend(_fixed_without_freedom(ctx))
+    return problems
+
+
+def _fixed_without_freedom(ctx: CheckContext) -> list[Diagnostic]:
+    """`fixed` holds a connection's DoFs when the hack settles; on a connection
+    that is held anyway (a clip's grip) or has no free DoF it changes nothing."""
+    problems = []
+    for joint in ctx.model.joints:
+        connection = joint.connection
+        if not connection.fixed:
+            continue
+        sides = (joint.a.primitive, joint.b.primitive)
+        free = [d for p in sides for d in p.dofs]
+        reason = None
+        if not free:
+            reason = "this connection has no degrees of freedom"
+        elif any(p.kind == "clip" for p in sides):
+            reason = "a clip already holds what it grips"
+        if reason is not None:
+            problems.append(
+                Diagnostic(
+                    Severity.NOTE,
+                    "N412",
+                    f"`fixed` changes nothing here: {reason}",
+                    connection.fixed_span or connection.span,
+                    "you may remove `fixed`",
+                )
+            )
     return problems
 
 

@@ -23,6 +23,7 @@ EXPECTED = {
     "two_targets": ["E407"],
     "no_environment": ["E408"],
     "floating_parts": ["E409"],
+    "fixed_clip": ["N412"],
     "target_not_held": ["E410"],
     "only_on_target": ["W411"],
     "unused_part": ["W413"],
