@@ -45,9 +45,9 @@ def check(path: Path, bindings: Mapping[str, str] | None = None, seed: int = 0) 
     flat, elaboration_problems = elaborate(program, library, bindings)
     found = [*program.diagnostics, *problems, *elaboration_problems]
     model = report = None
-    if flat is not None and not has_errors(found):
+    if flat is not None and not has_errors([*program.diagnostics, *problems]):
         model = build_model(flat)
-        report = check_program(CheckContext(flat, model, library, seed))
+        report = check_program(CheckContext(flat, model, library, seed), complete=not has_errors(found))
         found.extend(report.diagnostics)
     return CheckResult(program, library, flat, model, report, tuple(sort_diagnostics(found)))
 

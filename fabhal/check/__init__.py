@@ -14,11 +14,12 @@ from fabhal.check import connectivity, cycles, dimensions, graph
 from fabhal.check.context import CheckContext
 from fabhal.diagnostics import Diagnostic, has_errors
 
-RULES = (
+# rules about one connection at a time: they run even when other lines have errors
+LOCAL_RULES = (
     connectivity.check,
     dimensions.check,
-    graph.check,
 )
+RULES = (*LOCAL_RULES, graph.check)
 
 
 @dataclass(frozen=True)
@@ -27,10 +28,14 @@ class CheckReport:
     loops: cycles.LoopReport | None  # DoFs that close the loops, to start the solver from
 
 
-def check_program(ctx: CheckContext) -> CheckReport:
+def check_program(ctx: CheckContext, complete: bool = True) -> CheckReport:
+    """Run the rules; with `complete` False (some lines failed to elaborate, so the
+    program is partial) only the rules about single connections."""
     problems: list[Diagnostic] = []
-    for rule in RULES:
+    for rule in RULES if complete else LOCAL_RULES:
         problems.extend(rule(ctx))
+    if not complete:
+        return CheckReport(tuple(problems), None)
     loops = None
     if not has_errors(problems):
         cycle_problems, loops = cycles.check(ctx)
@@ -38,4 +43,4 @@ def check_program(ctx: CheckContext) -> CheckReport:
     return CheckReport(tuple(problems), loops)
 
 
-__all__ = ["RULES", "CheckContext", "CheckReport", "check_program"]
+__all__ = ["LOCAL_RULES", "RULES", "CheckContext", "CheckReport", "check_program"]

@@ -63,7 +63,7 @@ def check(ctx: CheckContext) -> list[Diagnostic]:
             problems.append(
                 error(
                     "E401",
-                    f"a {a.kind} cannot connect to a {b.kind}",
+                    f"{_article(a.kind)} {a.kind} cannot connect to {_article(b.kind)} {b.kind}",
                     connection.span,
                     _partners_help(a.kind, b.kind),
                 )
@@ -86,10 +86,14 @@ def check(ctx: CheckContext) -> list[Diagnostic]:
 
 def _partners_help(first: str, second: str) -> str:
     lines = [
-        f"a {kind} connects to: {', '.join(partners(kind)) or 'nothing'}"
+        f"{_article(kind)} {kind} connects to: {', '.join(partners(kind)) or 'nothing'}"
         for kind in dict.fromkeys((first, second))
     ]
     return "; ".join(lines)
+
+
+def _article(word: str) -> str:
+    return "an" if word[0] in "aeiou" else "a"
 
 
 def _single_connections(ctx: CheckContext) -> list[Diagnostic]:

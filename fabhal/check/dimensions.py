@@ -8,6 +8,7 @@ quote both numbers.
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 from fabhal.check.context import CheckContext, other_end
 from fabhal.diagnostics import Diagnostic, Severity, error
@@ -124,6 +125,25 @@ def fit_problem(a: Primitive, b: Primitive) -> tuple[str, str] | None:
     return None
 
 
+def _fitting_parts(ctx: CheckContext, part: str, replaced: Primitive, other: Primitive) -> str:
+    """Up to three library parts with a primitive of the same kind that would fit `other`."""
+    if ctx.part(part).environment:
+        return ""
+    found = []
+    for name, part_type in sorted(ctx.library.parts.items()):
+        scenery = Path(part_type.span.file).stem in ("environments", "targets")  # not things to hang with
+        if scenery or part_type.parameters or name == ctx.part(part).type_name:
+            continue
+        spec = ctx.library.instantiate(name, {}, part_type.span)
+        for candidate in spec.primitives:
+            if candidate.kind == replaced.kind and fit_problem(candidate, other) is None:
+                found.append(f"{name}.{candidate.name}")
+                break
+        if len(found) == 3:
+            break
+    return ", ".join(f"`{f}`" for f in found)
+
+
 def room(p: Primitive) -> tuple[float, str] | None:
     """(capacity, unit) of what connections use up on p, or None if unlimited."""
     if p.kind in ("rod", "tube", "edge"):
@@ -165,6 +185,11 @@ def check(ctx: CheckContext) -> list[Diagnostic]:
         found = fit_problem(a, b)
         if found is not None:
             message, help_text = found
+            alternatives = _fitting_parts(ctx, connection.a.part, a, b) or _fitting_parts(
+                ctx, connection.b.part, b, a
+            )
+            if alternatives:
+                help_text += f"; parts that fit: {alternatives}"
             problems.append(error("E404", f"{pair} do not fit: {message}", connection.span, help_text))
             continue
         tight = bent_open(a, b)
