@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import time
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -40,7 +41,63 @@ def check(path: Path, bindings: Mapping[str, str] | None = None, seed: int = 0) 
 
     Raises `load.InputError` when the file itself cannot be read.
     """
+    return _checked(load_program(path), bindings, seed)
+
+
+def part_library() -> CheckResult:
+    """The standard library alone (for `fabhal parts`)."""
+    program = load_program(None)
+    library, problems = build_library(program)
+    diagnostics = tuple(sort_diagnostics([*program.diagnostics, *problems]))
+    return CheckResult(program, library, None, None, None, diagnostics)
+
+
+@dataclass(frozen=True)
+class SolveResult:
+    """What `fabhal solve` reports: a status, the check, and the solution if there is one."""
+
+    status: str  # solved, falls_apart, infeasible, error
+    check: CheckResult
+    solution: object | None  # fabhal.solve.Solution (imported lazily: scipy is slow to load)
+    seed: int
+    timing: dict[str, float]
+
+    @property
+    def diagnostics(self) -> tuple[Diagnostic, ...]:
+        extra = getattr(self.solution, "diagnostics", ())
+        return tuple(sort_diagnostics([*self.check.diagnostics, *extra]))
+
+
+def solve(
+    path: Path,
+    bindings: Mapping[str, str] | None = None,
+    seed: int = 0,
+    time_limit: float | None = None,
+    gravity: bool = True,
+) -> SolveResult:
+    """Check, then (if the design can be built) solve. Raises load.InputError for an unreadable file."""
+    from fabhal.solve import SolveOptions
+    from fabhal.solve import solve as run_solver
+
+    started = time.perf_counter()
     program = load_program(path)
+    parsed = time.perf_counter()
+    result = _checked(program, bindings, seed)
+    checked = time.perf_counter()
+    timing = {"parse_s": parsed - started, "check_s": checked - parsed, "solve_s": 0.0}
+    codes = {d.code for d in result.diagnostics if d.is_error}
+    if codes & {"E420", "E421"}:
+        return SolveResult("infeasible", result, None, seed, timing)
+    if not result.ok or result.model is None:
+        return SolveResult("error", result, None, seed, timing)
+    loops = result.report.loops if result.report is not None else None
+    options = SolveOptions(seed=seed, time_limit=time_limit, gravity=gravity)
+    solution = run_solver(result.model, options, loops.x if loops is not None else None)
+    timing["solve_s"] = time.perf_counter() - checked
+    return SolveResult(solution.status, result, solution, seed, timing)
+
+
+def _checked(program: LoadedProgram, bindings: Mapping[str, str] | None, seed: int) -> CheckResult:
     library, problems = build_library(program)
     flat, elaboration_problems = elaborate(program, library, bindings)
     found = [*program.diagnostics, *problems, *elaboration_problems]
@@ -50,11 +107,3 @@ def check(path: Path, bindings: Mapping[str, str] | None = None, seed: int = 0) 
         report = check_program(CheckContext(flat, model, library, seed), complete=not has_errors(found))
         found.extend(report.diagnostics)
     return CheckResult(program, library, flat, model, report, tuple(sort_diagnostics(found)))
-
-
-def part_library() -> CheckResult:
-    """The standard library alone (for `fabhal parts`)."""
-    program = load_program(None)
-    library, problems = build_library(program)
-    diagnostics = tuple(sort_diagnostics([*program.diagnostics, *problems]))
-    return CheckResult(program, library, None, None, None, diagnostics)

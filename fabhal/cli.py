@@ -23,6 +23,8 @@ ISSUES_URL = "the FabHaL issue tracker"
 
 MAIN_EPILOG = """\
 examples:
+  fabhal solve programs/mug_hanger.fhl       where every part ends up, hanging at rest
+  fabhal solve --json -o out.json prog.fhl   the full result as JSON
   fabhal check programs/mug_hanger.fhl       validate a program, report every problem
   fabhal check --json programs/*.fhl         the same as a JSON array, for tools
   fabhal parts                               the part library, one line per part
@@ -59,6 +61,24 @@ A part connects through its primitives: `connect s1.hook2 -- rod` uses the
 primitive `hook2` of the part `s1`. Tags: UNBOUNDED (turns freely),
 BOUNDED_AND_CLAMPED (stops at its ends), BOUNDED_AND_OPEN (past an end the
 connection comes apart).
+"""
+
+
+SOLVE_EPILOG = """\
+examples:
+  fabhal solve programs/mug_hanger.fhl
+  fabhal solve --json programs/bird_feeder.fhl      the result object on stdout
+  fabhal solve -o result.json programs/demo.fhl     ... or in a file
+  fabhal solve --no-gravity my_hack.fhl             only step 1: closest to the target
+  fabhal solve -D n=3 --seed 7 family.fhl           bind a param; another random start
+
+Step 1 moves the parts (through the connections' degrees of freedom) to bring
+the target closest to its requested frame; step 2 lets the assembly settle
+under gravity from there. If a connection would slide off an open end, the
+status is `falls_apart` and the message names the connection.
+
+exit status: 0 solved, 1 falls apart / infeasible / errors in the program,
+2 a file could not be read (or an internal error).
 """
 
 
@@ -111,6 +131,25 @@ def build_parser() -> argparse.ArgumentParser:
     _add_define(check)
     check.set_defaults(run=run_check)
 
+    solve = commands.add_parser(
+        "solve",
+        help="solve a program: where every part ends up",
+        description="Check a program, then solve it: fit the target, settle under gravity, "
+        "report where every part ends up and whether it holds.",
+        epilog=SOLVE_EPILOG,
+        formatter_class=formatter,
+    )
+    solve.add_argument("file", type=Path, metavar="FILE", help=".fhl program to solve")
+    solve.add_argument("--json", action="store_true", help="print the result object as JSON on stdout")
+    solve.add_argument(
+        "-o", "--output", type=Path, metavar="FILE.json", help="write the JSON result to a file"
+    )
+    solve.add_argument("--seed", type=int, default=0, help="seed for the random starts (default 0)")
+    solve.add_argument("--time-limit", type=float, metavar="SECONDS", help="stop with the best result so far")
+    solve.add_argument("--no-gravity", action="store_true", help="skip step 2 (settling under gravity)")
+    _add_define(solve)
+    solve.set_defaults(run=run_solve)
+
     parts = commands.add_parser(
         "parts",
         help="list the part library, or show one part",
@@ -154,6 +193,34 @@ def run_check(args: argparse.Namespace) -> int:
     if args.json:
         print(json.dumps(collected, indent=2))
     return status
+
+
+def run_solve(args: argparse.Namespace) -> int:
+    from fabhal import api
+    from fabhal.load import InputError, display_name
+    from fabhal.report import solution as report
+
+    try:
+        result = api.solve(args.file, dict(args.define), args.seed, args.time_limit, not args.no_gravity)
+    except InputError as exc:
+        _print_diagnostics(exc.diagnostics, {})
+        return EXIT_USAGE
+    name = display_name(args.file.resolve())
+    data = report.to_dict(result, name)
+    if args.output is not None:
+        try:
+            args.output.write_text(json.dumps(data, indent=2) + "\n")
+        except OSError as exc:
+            print(f"fabhal: cannot write {args.output}: {exc.strerror}", file=sys.stderr)
+            return EXIT_USAGE
+    if args.json:
+        print(json.dumps(data, indent=2))
+    else:
+        _print_diagnostics(result.diagnostics, result.check.sources)
+        console = _console()
+        for renderable in report.renderables(result, name):
+            console.print(renderable)
+    return EXIT_OK if result.status == "solved" else EXIT_DIAGNOSTICS
 
 
 def run_parts(args: argparse.Namespace) -> int:

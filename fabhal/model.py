@@ -16,6 +16,7 @@ constraint: world(a connector) @ A == world(b connector).
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -71,6 +72,7 @@ class Model:
     closures: tuple[int, ...]  # joints off the tree
     variables: tuple[DofVariable, ...]
     unplaced: tuple[int, ...]  # parts no environment reaches
+    pinned: frozenset[int]  # DoFs that never move: a small surface resting on a larger one sits at its centre
 
     # ---- the DoF vector
 
@@ -144,7 +146,7 @@ class Model:
     def closure_jacobian(self, x: Array) -> Array:
         """(n_closures * 12, n_dofs) exact derivative of `closure_residuals`."""
         fwd = self.forward(x, with_twists=True)
-        moved = self._moved_parts()
+        moved = self.moved
         jac = np.zeros((len(self.closures), 12, len(self.variables)))
         for k, j in enumerate(self.closures):
             joint = self.joints[j]
@@ -163,6 +165,28 @@ class Model:
                     twist = to_world @ d_local @ invert(to_world @ local)
                     jac[k, :, i] += sign * _residual_change(inv_a @ twist @ world_b)
         return jac.reshape(len(self.closures) * 12, len(self.variables))
+
+    def point_derivatives(self, fwd: Forward, part: int, point: Array) -> Array:
+        """(n_dofs, 3): d(world position of `point`, given in `part`'s frame) / dx."""
+        world = fwd.frames[part][:3, :3] @ point + fwd.frames[part][:3, 3]
+        out = np.zeros((len(self.variables), 3))
+        for i, twist in fwd.twists.items():
+            if part in self.moved[i]:
+                out[i] = twist[:3, :3] @ world + twist[:3, 3]
+        return out
+
+    def frame_derivatives(self, fwd: Forward, part: int) -> Array:
+        """(n_dofs, 4, 4): d(part-to-world frame of `part`) / dx."""
+        out = np.zeros((len(self.variables), 4, 4))
+        for i, twist in fwd.twists.items():
+            if part in self.moved[i]:
+                out[i] = twist @ fwd.frames[part]
+        return out
+
+    @cached_property
+    def moved(self) -> dict[int, set[int]]:
+        """For each tree DoF, the parts that move with it (the child's subtree)."""
+        return self._moved_parts()
 
     def _moved_parts(self) -> dict[int, set[int]]:
         """For each tree DoF, the parts that move with it (the child's subtree)."""
@@ -245,7 +269,19 @@ def build_model(program: FlatProgram) -> Model:
         held = connection.fixed or "clip" in (a.primitive.kind, b.primitive.kind)
         joints.append(Joint(j, a, b, offset, connection, held))
     tree, closures, unplaced = _spanning_tree(program, joints)
-    return Model(program, program.parts, tuple(joints), tree, closures, tuple(variables), unplaced)
+    pinned = frozenset(i for joint in joints for i in _resting_surface(joint))
+    return Model(program, program.parts, tuple(joints), tree, closures, tuple(variables), unplaced, pinned)
+
+
+def _resting_surface(joint: Joint) -> tuple[int, ...]:
+    """Where a surface rests on a larger one, the smaller's DoFs: its centre sits on
+    the larger's connector point (the larger's own DoFs place it), so they stay
+    at their defaults; moving them too would only say the same thing twice."""
+    a, b = joint.a.primitive, joint.b.primitive
+    if a.kind != "surface" or b.kind != "surface":
+        return ()
+    area = [p.params["width"] * p.params["length"] for p in (a, b)]
+    return joint.a.dof_indices if area[0] <= area[1] else joint.b.dof_indices
 
 
 def _spanning_tree(

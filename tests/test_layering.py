@@ -25,6 +25,7 @@ ORDER = [
     "elaborate",
     "model",
     "check",
+    "solve",
     "report",
     "api",
     "cli",

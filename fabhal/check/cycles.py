@@ -186,12 +186,12 @@ def polygon_feasible(links: list[Link]) -> bool:
 # ---------------------------------------------------------------- closure solve
 
 
-def close_loops(model: Model, seed: int = 0, starts: int = MAX_STARTS) -> LoopReport:
-    """Find DoFs that close every loop: least squares from the defaults, then from
-    seeded random starts; stops at the first start that closes them all."""
+def close_loops(model: Model, seed: int = 0, starts: int = MAX_STARTS, x0: Array | None = None) -> LoopReport:
+    """Find DoFs that close every loop: least squares from `x0` (the defaults),
+    then from seeded random starts; stops at the first start that closes them all."""
     from scipy.optimize import least_squares
 
-    x0 = model.x_default()
+    x0 = model.x_default() if x0 is None else x0
     if not model.closures:
         return LoopReport(x0, True, 0.0, 0.0)
     free = np.array(

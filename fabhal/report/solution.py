@@ -1,0 +1,148 @@
+"""A solve result for tools (the JSON object of `fabhal solve --json`) and for people."""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from fabhal.diagnostics import to_json
+from fabhal.kinematics.frames import matrix_euler
+
+if TYPE_CHECKING:
+    from rich.console import RenderableType
+
+    from fabhal.api import SolveResult
+    from fabhal.solve import Solution
+
+
+def _numbers(values: Any, digits: int = 4) -> list[float]:
+    return [round(float(v), digits) + 0.0 for v in values]
+
+
+def _frame(matrix: np.ndarray) -> dict[str, list[float]]:
+    return {"pos": _numbers(matrix[:3, 3]), "rot": _numbers(matrix_euler(matrix))}
+
+
+def to_dict(result: SolveResult, program: str) -> dict[str, Any]:
+    """Exactly the object the solve command documents."""
+    solution: Solution | None = result.solution  # type: ignore[assignment]
+    out: dict[str, Any] = {"status": result.status, "program": program, "seed": result.seed}
+    if solution is None:
+        out.update({"target": None, "parts": {}, "connections": [], "energy": None, "residual": None})
+    else:
+        out.update(_solution(solution))
+    out["diagnostics"] = [to_json(d) for d in result.diagnostics]
+    out["timing"] = {k: round(v, 4) for k, v in result.timing.items()}
+    return out
+
+
+def _solution(solution: Solution) -> dict[str, Any]:
+    model = solution.model
+    goal = solution.goal
+    position_error, rotation_error = solution.target_errors()
+    target = {
+        "part": goal.source.part,
+        "primitive": goal.source.primitive,
+        "requested": _frame(goal.requested),
+        "achieved": _frame(solution.target_frame()),
+        "position_error_mm": round(position_error, 4),
+        "rotation_error_deg": round(rotation_error, 4),
+    }
+    parts = {
+        part.name: {
+            "type": part.type_name,
+            **_frame(solution.frames[i]),
+            "matrix": [_numbers(row, 6) for row in solution.frames[i]],
+            "mass_g": round(float(solution.masses[i]), 3),
+        }
+        for i, part in enumerate(model.parts)
+    }
+    connections = []
+    resting = set(solution.at_bound)
+    for joint in model.joints:
+        dofs: dict[str, float] = {}
+        at_bound: list[str] = []
+        for side, end in ((joint.a, joint.connection.a), (joint.b, joint.connection.b)):
+            for i, dof in zip(side.dof_indices, side.primitive.dofs, strict=True):
+                name = f"{end}.{dof.name}"
+                dofs[name] = round(float(solution.x[i]), 6)
+                if i in resting:
+                    at_bound.append(name)
+        connections.append(
+            {"a": str(joint.connection.a), "b": str(joint.connection.b), "dofs": dofs, "at_bound": at_bound}
+        )
+    return {
+        "target": target,
+        "parts": parts,
+        "connections": connections,
+        "energy": round(solution.energy, 6),
+        "residual": float(f"{solution.residual:.3g}"),
+    }
+
+
+# ---------------------------------------------------------------- for people
+
+_STATUS_STYLE = {
+    "solved": "bold green",
+    "falls_apart": "bold red",
+    "infeasible": "bold red",
+    "error": "bold red",
+}
+_STATUS_TEXT = {
+    "solved": "solved",
+    "falls_apart": "falls apart",
+    "infeasible": "infeasible: a loop cannot close",
+    "error": "not solved: the program has errors",
+}
+
+
+def renderables(result: SolveResult, program: str) -> list[RenderableType]:
+    from rich.table import Table
+    from rich.text import Text
+
+    head = Text()
+    head.append(f"{program}: ", style="bold")
+    head.append(_STATUS_TEXT[result.status], style=_STATUS_STYLE[result.status])
+    solution: Solution | None = result.solution  # type: ignore[assignment]
+    if solution is None:
+        return [head]
+    position_error, rotation_error = solution.target_errors()
+    goal = solution.goal
+    head.append(
+        f"\ntarget {goal.source.part}" + (f".{goal.source.primitive}" if goal.source.primitive else "")
+    )
+    head.append(f" is {position_error:.1f} mm and {rotation_error:.1f} degrees from where it was asked to be")
+    head.append(f"\nloops closed to {solution.residual:.1e} mm; potential energy {solution.energy:.3f} J")
+    if solution.equilibrium is not None:
+        head.append(f"; at rest to {solution.equilibrium:.1e} of its weight")
+    timing = result.timing
+    head.append(
+        f"\n{timing['parse_s'] + timing['check_s'] + timing['solve_s']:.2f} s "
+        f"(parse {timing['parse_s']:.2f}, check {timing['check_s']:.2f}, solve {timing['solve_s']:.2f})",
+        style="dim",
+    )
+    table = Table(title="where each part ends up (world frame: mm, degrees)")
+    for column in ("part", "type", "position", "rotation", "mass"):
+        table.add_column(column, justify="right" if column == "mass" else "left")
+    for i, part in enumerate(solution.model.parts):
+        frame = _frame(solution.frames[i])
+        mass = "fixed" if part.environment else f"{solution.masses[i]:.1f} g"
+        table.add_row(part.name, part.type_name, _triple(frame["pos"]), _triple(frame["rot"]), mass)
+    chain = Text("how it hangs (each line: a part and what holds it)\n", style="bold")
+    for edge in solution.model.tree:
+        joint = solution.model.joints[edge.joint]
+        up, down = (
+            (joint.connection.a, joint.connection.b)
+            if edge.parent_side == "a"
+            else (joint.connection.b, joint.connection.a)
+        )
+        chain.append(f"  {down}  <-  {up}\n")
+    for j in solution.model.closures:
+        connection = solution.model.joints[j].connection
+        chain.append(f"  {connection.a}  ==  {connection.b}  (closes a loop)\n")
+    return [head, table, chain]
+
+
+def _triple(values: list[float]) -> str:
+    return "(" + ", ".join(f"{v:.1f}" for v in values) + ")"

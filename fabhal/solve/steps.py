@@ -1,0 +1,235 @@
+"""The two solver steps, as optimisation problems over the free DoFs.
+
+Step 1 (fit): minimise the target cost subject to loop closure, spacing and
+the DoFs' bounds. Step 2 (settle): from step 1, with the target free, minimise
+the potential energy under the same constraints, holding the DoFs of `fixed`
+connections and clips. Both use analytic gradients: least squares (trf) or
+L-BFGS-B when there are no constraints besides bounds, SLSQP when there are.
+
+Loop closure is imposed with 6 equations per loop: the position error and the
+antisymmetric part of the rotation error (zero at a closed loop; the
+starting point is always a closed configuration, so the half-turn solution
+of that form is never near).
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from fabhal.kinematics.frames import Array
+from fabhal.model import Model
+from fabhal.solve import target as target_mod
+from fabhal.solve.spacing import Spacing, spacing_jacobian, spacing_values
+
+GRAVITY = 9.81  # m/s2
+CLOSED_MM = 1e-6
+
+# rows (per loop) of the 12 closure residuals kept as the 6 constraint equations:
+# position (3) and vee((R - R^T) / 2) from the 9 rotation entries
+_ANTISYMMETRIC = np.zeros((3, 9))
+for _row, (_i, _j) in enumerate(((2, 1), (0, 2), (1, 0))):
+    _ANTISYMMETRIC[_row, 3 * _i + _j] = 0.5
+    _ANTISYMMETRIC[_row, 3 * _j + _i] = -0.5
+
+
+def _to_six(residual12: Array) -> Array:
+    """(..., 12k, ...) -> (..., 6k, ...) along the first axis."""
+    blocks = residual12.reshape(-1, 12, *residual12.shape[1:])
+    position = blocks[:, :3]
+    rotation = np.einsum("ij,kj...->ki...", _ANTISYMMETRIC, blocks[:, 3:])
+    return np.concatenate([position, rotation], axis=1).reshape(-1, *residual12.shape[1:])
+
+
+@dataclass
+class Problem:
+    """The free DoFs of a model and the constraints on them."""
+
+    model: Model
+    free: Array  # indices into x of the DoFs being solved for
+    x_base: Array  # values of the others
+    spacing: list[Spacing] = field(default_factory=list)
+    deadline: float = float("inf")
+
+    def full(self, v: Array) -> Array:
+        x = self.x_base.copy()
+        x[self.free] = v
+        return x
+
+    def bounds(self) -> tuple[Array, Array]:
+        low, high = self.model.bounds()
+        return low[self.free], high[self.free]
+
+    def closure(self, v: Array) -> Array:
+        return _to_six(self.model.closure_residuals(self.full(v)))
+
+    def closure_jacobian(self, v: Array) -> Array:
+        return _to_six(self.model.closure_jacobian(self.full(v)))[:, self.free]
+
+    def spacing_values(self, v: Array) -> Array:
+        return spacing_values(self.spacing, self.full(v))
+
+    def spacing_jacobian(self) -> Array:
+        return spacing_jacobian(self.spacing, len(self.x_base))[:, self.free]
+
+    def constraints(self) -> list[dict[str, object]]:
+        found: list[dict[str, object]] = []
+        if self.model.closures:
+            found.append({"type": "eq", "fun": self.closure, "jac": self.closure_jacobian})
+        if self.spacing:
+            constant = self.spacing_jacobian()
+            found.append({"type": "ineq", "fun": self.spacing_values, "jac": lambda v: constant})
+        return found
+
+    def out_of_time(self) -> bool:
+        return time.monotonic() > self.deadline
+
+
+# ---------------------------------------------------------------- step 1
+
+
+def fit_target(problem: Problem, goal: target_mod.TargetGoal, starts: list[Array]) -> tuple[Array, bool]:
+    """Best free DoFs over the starts; (v, stopped early for the time limit)."""
+    model = problem.model
+
+    def residual(v: Array) -> Array:
+        frames = model.part_frames(problem.full(v))
+        return target_mod.residual(goal, target_mod.achieved(goal, frames))
+
+    def jacobian(v: Array) -> Array:
+        fwd = model.forward(problem.full(v), with_twists=True)
+        return target_mod.residual_jacobian(goal, model, fwd)[:, problem.free]
+
+    constrained = bool(problem.constraints())
+    low, high = problem.bounds()
+    best_v, best_cost = starts[0], np.inf
+    for start in starts:
+        if problem.out_of_time():
+            return best_v, True
+        start = np.clip(start, low, high)
+        if constrained:
+            v = _slsqp(
+                problem,
+                lambda u: 0.5 * float(residual(u) @ residual(u)),
+                lambda u: jacobian(u).T @ residual(u),
+                start,
+            )
+        else:
+            from scipy.optimize import least_squares
+
+            v = least_squares(
+                residual, start, jac=jacobian, bounds=(low, high), method="trf", x_scale="jac", max_nfev=200
+            ).x
+        cost = float(residual(v) @ residual(v))
+        if cost < best_cost and _feasible(problem, v):
+            best_v, best_cost = v, cost
+        if best_cost < 1e-10:
+            break
+    return best_v, False
+
+
+# ---------------------------------------------------------------- step 2
+
+
+def potential(model: Model, masses: Array, centres: Array) -> Callable[[Array], tuple[float, Array]]:
+    """U(x) = sum of m g z of each part's centre of mass, in joules, and dU/dx.
+
+    masses: (n_parts,) grams (0 for environments); centres: (n_parts, 3) mm in part frames."""
+    weights = masses / 1000.0 * GRAVITY / 1000.0  # g -> kg, mm -> m: joules per mm of height
+
+    def energy(x: Array) -> tuple[float, Array]:
+        fwd = model.forward(x, with_twists=True)
+        heights = np.einsum("pj,pj->p", fwd.frames[:, 2, :3], centres) + fwd.frames[:, 2, 3]
+        grad = np.zeros(len(x))
+        for part in np.flatnonzero(weights):
+            grad += weights[part] * model.point_derivatives(fwd, int(part), centres[part])[:, 2]
+        return float(weights @ heights), grad
+
+    return energy
+
+
+def settle(problem: Problem, energy: Callable[[Array], tuple[float, Array]], start: Array) -> Array:
+    """Free DoFs at rest: minimum potential energy under the constraints."""
+    from scipy.optimize import minimize
+
+    def value(v: Array) -> float:
+        return energy(problem.full(v))[0]
+
+    def gradient(v: Array) -> Array:
+        return energy(problem.full(v))[1][problem.free]
+
+    if problem.constraints():
+        return _slsqp(problem, value, gradient, start)
+    low, high = problem.bounds()
+    bounds = list(zip(_finite_or_none(low), _finite_or_none(high), strict=True))
+    result = minimize(
+        lambda v: energy(problem.full(v)),
+        start,
+        jac=True,
+        method="L-BFGS-B",
+        bounds=bounds,
+        options={"maxiter": 500, "ftol": 1e-15, "gtol": 1e-12},
+    )
+    return result.x
+
+
+def _finite_or_none(values: Array) -> list[float | None]:
+    return [float(v) if np.isfinite(v) else None for v in values]
+
+
+def _slsqp(
+    problem: Problem, value: Callable[[Array], float], gradient: Callable[[Array], Array], start: Array
+) -> Array:
+    from scipy.optimize import minimize
+
+    low, high = problem.bounds()
+    bounds = list(zip(_finite_or_none(low), _finite_or_none(high), strict=True))
+    result = minimize(
+        value,
+        start,
+        jac=gradient,
+        method="SLSQP",
+        bounds=bounds,
+        constraints=problem.constraints(),
+        options={"maxiter": 300, "ftol": 1e-12},
+    )
+    v = np.clip(result.x, low, high)
+    return _project(problem, v)
+
+
+def _project(problem: Problem, v: Array) -> Array:
+    """Pull a nearly closed configuration back onto the loops (to CLOSED_MM)."""
+    if not problem.model.closures or np.abs(problem.closure(v)).max() < CLOSED_MM:
+        return v
+    from scipy.optimize import least_squares
+
+    low, high = problem.bounds()
+    fit = least_squares(
+        problem.closure,
+        v,
+        jac=problem.closure_jacobian,
+        bounds=(low, high),
+        method="trf",
+        xtol=1e-15,
+        ftol=1e-15,
+        gtol=1e-15,
+        max_nfev=100,
+    )
+    return fit.x
+
+
+def _feasible(problem: Problem, v: Array) -> bool:
+    if problem.model.closures and np.abs(problem.closure(v)).max() > 1e-4:
+        return False
+    return not problem.spacing or bool(problem.spacing_values(v).min() > -1e-6)
+
+
+def closure_residual_mm(model: Model, x: Array) -> float:
+    """Largest loop-closure error: position in mm, rotation entries as mm-equivalent
+    (x ROTATION_LENGTH_MM, see fabhal.model)."""
+    if not model.closures:
+        return 0.0
+    return float(np.abs(model.closure_residuals(x)).max())
