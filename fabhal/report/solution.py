@@ -2,18 +2,32 @@
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
+from collections.abc import Mapping, Sequence
+from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
 
-from fabhal.diagnostics import to_json
+from fabhal.diagnostics import Diagnostic, to_json
 from fabhal.kinematics.frames import matrix_euler
+from fabhal.solve import Solution
 
 if TYPE_CHECKING:
     from rich.console import RenderableType
 
-    from fabhal.api import SolveResult
-    from fabhal.solve import Solution
+
+class SolveOutcome(Protocol):
+    """What a solve run produced (fabhal.api.SolveResult has these)."""
+
+    @property
+    def status(self) -> str: ...
+    @property
+    def solution(self) -> object | None: ...
+    @property
+    def seed(self) -> int: ...
+    @property
+    def timing(self) -> Mapping[str, float]: ...
+    @property
+    def diagnostics(self) -> Sequence[Diagnostic]: ...
 
 
 def _numbers(values: Any, digits: int = 4) -> list[float]:
@@ -24,7 +38,7 @@ def _frame(matrix: np.ndarray) -> dict[str, list[float]]:
     return {"pos": _numbers(matrix[:3, 3]), "rot": _numbers(matrix_euler(matrix))}
 
 
-def to_dict(result: SolveResult, program: str) -> dict[str, Any]:
+def to_dict(result: SolveOutcome, program: str) -> dict[str, Any]:
     """Exactly the object the solve command documents."""
     solution: Solution | None = result.solution  # type: ignore[assignment]
     out: dict[str, Any] = {"status": result.status, "program": program, "seed": result.seed}
@@ -97,7 +111,7 @@ _STATUS_TEXT = {
 }
 
 
-def renderables(result: SolveResult, program: str) -> list[RenderableType]:
+def renderables(result: SolveOutcome, program: str) -> list[RenderableType]:
     from rich.table import Table
     from rich.text import Text
 
