@@ -24,6 +24,11 @@ from fabhal.solve.spacing import spacing_constraints, spread
 from fabhal.solve.steps import Problem, closure_residual_mm, fit_target, potential, settle
 
 EXTRA_STARTS = 3  # seeded random starts for step 1, besides the spread-out defaults
+# step 2 settles again from this many nudged copies of its result: a gradient method
+# stays on an unstable balance (a hook upside down on its rod); a nudge falls off it
+NUDGES = 2
+NUDGE_DEGREES = 15.0
+NUDGE_FRACTION = 0.05
 BOUND_TOLERANCE = 1e-6  # a DoF within this fraction of its range from an end rests on that end
 # KKT residual: the unbalanced generalised force per mm of motion, as a fraction of
 # the assembly's total weight; 1e-3 = 0.1 % of the weight left unbalanced
@@ -105,7 +110,7 @@ def solve(model: Model, options: SolveOptions, loop_start: Array | None = None) 
         step2 = Problem(model, movable, x.copy(), spacing, deadline)
         energy = potential(model, masses, centres)
         if len(movable):
-            x = step2.full(settle(step2, energy, x[movable]))
+            x = _settle_stably(step2, energy, x, rng)
         equilibrium, at_bound, falls = _verify(step2, energy, x, masses)
         if equilibrium > EQUILIBRIUM_TOLERANCE:
             notes.append(
@@ -136,6 +141,28 @@ def solve(model: Model, options: SolveOptions, loop_start: Array | None = None) 
         falls,
         tuple(diagnostics),
     )
+
+
+def _settle_stably(
+    problem: Problem, energy: Callable[[Array], tuple[float, Array]], x: Array, rng: np.random.Generator
+) -> Array:
+    """Settle, then settle again from nudged copies; keep the lowest energy."""
+    model, free = problem.model, problem.free
+    low, high = problem.bounds()
+    best = problem.full(settle(problem, energy, x[free]))
+    best_energy = energy(best)[0]
+    fraction = np.array([not v.dof.periodic and v.dof.high <= 1.0 for v in model.variables])[free]
+    size = np.where(fraction, NUDGE_FRACTION, NUDGE_DEGREES)
+    for _ in range(NUDGES):
+        if problem.out_of_time():
+            break
+        start = np.clip(best[free] + rng.uniform(-size, size), low, high)
+        candidate = problem.full(settle(problem, energy, start))
+        value = energy(candidate)[0]
+        closed = not model.closures or closure_residual_mm(model, candidate) < 1e-6
+        if closed and value < best_energy - 1e-12:
+            best, best_energy = candidate, value
+    return best
 
 
 def _late(options: SolveOptions) -> Diagnostic:

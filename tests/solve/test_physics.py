@@ -1,0 +1,111 @@
+"""The solver's physics, on small hacks whose answer is known.
+
+Tolerances: positions to 0.5 mm and angles to 1 degree after settling: the
+optimisers stop at a relative energy change of about 1e-12 and the meshes'
+centres of mass are exact, so the physics would allow far less; the margin
+covers the flat valleys of the energy near equilibrium (a tiny energy change
+for a visible move)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from fabhal import api
+from fabhal.meshes import mass_properties
+from fabhal.solve import Solution
+from tests.conftest import REPO
+
+
+def solve_text(tmp_path: Path, text: str, seed: int = 0) -> api.SolveResult:
+    program = tmp_path / "hack.fhl"
+    program.write_text(text)
+    result = api.solve(program, seed=seed)
+    assert result.solution is not None, result.diagnostics
+    return result
+
+
+def connector_world(solution: Solution, joint: int, side: str) -> np.ndarray:
+    model = solution.model
+    j = model.joints[joint]
+    return model.connector_frame(j.a if side == "a" else j.b, solution.x, solution.frames)
+
+
+# rot (90 + tilt, 0, 90): the rod's axis along x, sloping down towards +x by `tilt`
+# degrees, its contact side (+y) up
+S_HOOK_ON_ROD = """\
+environment rod = Rod(length: {length}, radius: 2{extra}) at (0, 0, 300) rot ({roll}, 0, 90)
+s = DoubleHook()
+connect s.hook2 -- rod
+target s.hook1 at (0, 0, 260)
+"""
+
+
+def test_a_hook_on_a_horizontal_rod_rests_where_its_arc_sits_on_the_rod(tmp_path: Path) -> None:
+    """The rod carries the hook at the one point of the arc where the arc is
+    level: the contact normal is vertical (the hook's connector z, towards the
+    arc's centre, points straight down; the rod's straight up) and the S-hook's
+    centre of mass hangs straight below. Started upside down on the rod (an
+    unstable balance), it must not stay there."""
+    result = solve_text(tmp_path, S_HOOK_ON_ROD.format(length=500, extra="", roll=90))
+    assert result.status == "solved"
+    solution = result.solution
+    hook, rod = connector_world(solution, 0, "a"), connector_world(solution, 0, "b")
+    down = np.array([0.0, 0.0, -1.0])
+    assert hook[:3, 2] @ down > np.cos(np.radians(1.0))
+    assert rod[:3, 2] @ -down > np.cos(np.radians(1.0))
+    s_hook = solution.frames[solution.model.part_index("s")]
+    assert np.linalg.norm(s_hook[:2, 3] - hook[:2, 3]) < 0.5  # its centre of mass is its origin
+    assert s_hook[2, 3] < hook[2, 3]
+
+
+def test_a_part_hanging_from_one_point_has_its_centre_of_mass_straight_below(tmp_path: Path) -> None:
+    text = (
+        "environment rod = Rod(length: 500, radius: 2) at (0, 0, 300) rot (90, 0, 90)\n"
+        "mug = Mug()\nconnect mug.hook -- rod\ntarget mug.hook at (0, 0, 250) rot (0, 0, 90)\n"
+    )
+    result = solve_text(tmp_path, text)
+    solution = result.solution
+    assert result.status == "solved"
+    mug = solution.model.part_index("mug")
+    centre = mass_properties(solution.model.parts[mug].spec).center_of_mass
+    com = solution.frames[mug][:3, :3] @ centre + solution.frames[mug][:3, 3]
+    contact = connector_world(solution, 0, "b")[:3, 3]
+    assert np.linalg.norm(com[:2] - contact[:2]) < 0.5  # mm, horizontally
+    assert com[2] < contact[2]
+
+
+def test_a_hook_slides_off_a_short_open_rod_tilted_down(tmp_path: Path) -> None:
+    result = solve_text(tmp_path, S_HOOK_ON_ROD.format(length=60, extra="", roll=110))
+    assert result.status == "falls_apart"
+    (fall,) = result.solution.falls
+    assert fall.part == "s"
+    (diagnostic,) = [d for d in result.diagnostics if d.code == "E501"]
+    assert "`s` slides off the end of rod `rod`" in diagnostic.message
+    assert diagnostic.span is not None and diagnostic.span.line == 3  # the connect line
+
+
+def test_the_same_hook_on_a_closed_rod_stays(tmp_path: Path) -> None:
+    result = solve_text(tmp_path, S_HOOK_ON_ROD.format(length=60, extra=", slide_off: false", roll=110))
+    assert result.status == "solved"
+    solution = result.solution
+    # it rests against the lower end, which holds it
+    rod_t = next(i for i, v in enumerate(solution.model.variables) if v.name == "rod.rod.t")
+    assert rod_t in solution.at_bound
+
+
+def test_loops_stay_closed_and_the_settled_state_is_at_rest() -> None:
+    for name in ("bird_feeder", "closet_basket", "soap_bottle_holder", "toothbrush_holder"):
+        result = api.solve(REPO / "programs" / f"{name}.fhl")
+        solution = result.solution
+        assert solution is not None
+        assert solution.residual < 1e-6, name  # mm: the closure solve's bar
+        assert solution.equilibrium is not None and solution.equilibrium < 1e-3, name
+
+
+def test_the_same_seed_gives_the_same_answer(tmp_path: Path) -> None:
+    text = (REPO / "programs" / "bird_feeder.fhl").read_text()
+    first = solve_text(tmp_path, text, seed=3).solution
+    second = solve_text(tmp_path, text, seed=3).solution
+    np.testing.assert_array_equal(first.x, second.x)
