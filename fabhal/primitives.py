@@ -19,6 +19,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
+from functools import cached_property
 from enum import Enum
 
 import numpy as np
@@ -375,12 +376,20 @@ class Primitive:
 
     def base_frame(self) -> Array:
         """(4, 4): the primitive's frame in its part's frame."""
+        return self._base.copy()
+
+    @cached_property
+    def _base(self) -> Array:
         return frame_matrix(self.position, self.rotation)
+
+    @cached_property
+    def _formula(self) -> FrameFormula:
+        return FRAME_FORMULAS[self.variant]
 
     def connector_frames(self, dof_values: np.ndarray) -> Array:
         """(..., k) DoF values -> (..., 4, 4) connector frames in the part's frame."""
         values = np.asarray(dof_values, dtype=float)
-        return self.base_frame() @ FRAME_FORMULAS[self.variant](self.params, values)
+        return self._base @ self._formula(self.params, values)
 
 
 def make_primitive(

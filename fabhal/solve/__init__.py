@@ -87,7 +87,8 @@ def solve(model: Model, options: SolveOptions, loop_start: Array | None = None) 
     if model.closures:
         starts[0] = close_loops(model, options.seed, x0=x0).x
     low, high = model.bounds()
-    for _ in range(EXTRA_STARTS):
+    # with loops every start is closed first and fitted under constraints: fewer, dearer starts
+    for _ in range(EXTRA_STARTS if not model.closures else 1):
         random = rng.uniform(np.where(np.isfinite(low), low, 0.0), np.where(np.isfinite(high), high, 360.0))
         random[list(model.pinned)] = x0[list(model.pinned)]
         if model.closures:
