@@ -46,7 +46,7 @@ class Joint:
     b: Side
     offset: Array  # world(a connector) @ offset == world(b connector)
     connection: Connection
-    held: bool  # DoFs stay put when the hack settles (`fixed`, or a clip's grip)
+    held: bool  # DoFs stay put when the hack settles (`fixed`, a clip's grip, resting on a surface)
 
 
 @dataclass(frozen=True)
@@ -266,11 +266,19 @@ def build_model(program: FlatProgram) -> Model:
             sides.append(Side(part, primitive, tuple(range(start, len(variables)))))
         a, b = sides
         offset = alignment_offset(a.primitive, b.primitive, connection.flip)
-        held = connection.fixed or "clip" in (a.primitive.kind, b.primitive.kind)
+        held = connection.fixed or _holds_by_itself(a.primitive.kind, b.primitive.kind)
         joints.append(Joint(j, a, b, offset, connection, held))
     tree, closures, unplaced = _spanning_tree(program, joints)
     pinned = frozenset(i for joint in joints for i in _resting_surface(joint))
     return Model(program, program.parts, tuple(joints), tree, closures, tuple(variables), unplaced, pinned)
+
+
+def _holds_by_itself(first: str, second: str) -> bool:
+    """A clip's grip, and anything standing on a surface, stay put when the hack
+    settles: friction holds them (FabHaL models no friction elsewhere; without it
+    a bottle would skate across its basket's floor and tip the basket)."""
+    kinds = {first, second}
+    return "clip" in kinds or kinds in ({"surface"}, {"surface", "hemisphere"})
 
 
 def _resting_surface(joint: Joint) -> tuple[int, ...]:
