@@ -17,7 +17,7 @@ from fabhal.library import BARE_PRIMITIVES, Library, PartSpec, bare_primitive
 from fabhal.load import LoadedProgram
 from fabhal.source import Span
 from fabhal.syntax import ast
-from fabhal.syntax.hints import did_you_mean
+from fabhal.syntax.hints import did_you_mean, suggestion
 
 Vec3 = tuple[float, float, float]
 
@@ -430,13 +430,13 @@ class _Elaborator:
                 "move the declaration above its first use",
             )
         known = [*scope.parts, *scope.aliases, *scope.assemblies]
-        suggestion = did_you_mean(key, known)
-        if suggestion:
-            help_text = f"did you mean `{suggestion}`?"
-        elif known:
-            help_text = f"declared so far: {', '.join(known)}"
-        else:
-            help_text = "declare a part first, e.g. `s1 = DoubleHook()`"
+        help_text = suggestion(
+            key,
+            known,
+            "declared so far: {choices}",
+            "declare a part first, e.g. `s1 = DoubleHook()`",
+            quoted=False,
+        )
         return error("E302", f"unknown name `{key}`", span, help_text)
 
     def _target(self, statement: ast.TargetStmt, scope: _Scope) -> None:

@@ -7,7 +7,7 @@ from collections.abc import Callable, Mapping
 
 from fabhal.diagnostics import FabhalError, error
 from fabhal.syntax import ast
-from fabhal.syntax.hints import did_you_mean
+from fabhal.syntax.hints import did_you_mean, suggestion
 
 Value = float | bool
 
@@ -32,14 +32,12 @@ def evaluate(expr: ast.Expr, env: Mapping[str, Value]) -> Value:
     if isinstance(expr, ast.Name):
         if expr.name in env:
             return env[expr.name]
-        suggestion = did_you_mean(expr.name, env)
-        known = ", ".join(f"`{n}`" for n in env)
-        if suggestion:
-            help_text = f"did you mean `{suggestion}`?"
-        elif known:
-            help_text = f"the names known here: {known}"
-        else:
-            help_text = "no names are defined here; declare it with `param`"
+        help_text = suggestion(
+            expr.name,
+            env,
+            "the names known here: {choices}",
+            "no names are defined here; declare it with `param`",
+        )
         raise FabhalError(
             [error("E220", f"unknown name `{expr.name}` in an expression", expr.span, help_text)]
         )

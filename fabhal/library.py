@@ -19,7 +19,7 @@ from fabhal.load import LoadedProgram
 from fabhal.primitives import KINDS, Primitive, make_primitive
 from fabhal.source import Span
 from fabhal.syntax import ast
-from fabhal.syntax.hints import did_you_mean
+from fabhal.syntax.hints import did_you_mean, suggestion
 
 # `Rod(...)` etc. make a one-primitive part (for environments)
 BARE_PRIMITIVES = {kind.capitalize(): kind for kind in KINDS}
@@ -261,13 +261,9 @@ def _bind_arguments(
     env: dict[str, float] = {}
     for name, (value, arg_span) in args.items():
         if name not in known:
-            suggestion = did_you_mean(name, known)
-            if suggestion:
-                help_text = f"did you mean `{suggestion}`?"
-            elif known:
-                help_text = f"`{part_type.name}` takes {', '.join(f'`{n}`' for n in known)}"
-            else:
-                help_text = f"`{part_type.name}` takes no arguments"
+            help_text = suggestion(
+                name, known, f"`{part_type.name}` takes {{choices}}", f"`{part_type.name}` takes no arguments"
+            )
             problems.append(
                 error("E211", f"`{part_type.name}` has no parameter `{name}`", arg_span, help_text)
             )

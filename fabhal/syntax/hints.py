@@ -99,6 +99,18 @@ def did_you_mean(word: str, choices: Iterable[str]) -> str | None:
     return matches[0] if matches else None
 
 
+def suggestion(word: str, choices: Iterable[str], listing: str, empty: str, quoted: bool = True) -> str:
+    """A help line: "did you mean `x`?" for a near miss, else `listing` with the
+    choices filled in for {choices}, else `empty` when there are none."""
+    options = list(choices)
+    close = did_you_mean(word, options)
+    if close is not None:
+        return f"did you mean `{close}`?"
+    if options:
+        return listing.format(choices=", ".join(f"`{o}`" if quoted else o for o in options))
+    return empty
+
+
 # ---------------------------------------------------------------- the rules
 
 
