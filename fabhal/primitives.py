@@ -255,7 +255,8 @@ def dofs_of(variant: str, params: Mapping[str, float], flags: Mapping[str, bool]
     flex_phi = Dof("phi", 45.0, 135.0, 90.0)
     table: dict[str, Callable[[], tuple[Dof, ...]]] = {
         "Rod": lambda: (_slide("t", slides_off), flex_phi),
-        "RodCtl": lambda: (_slide("t", slides_off),),
+        # what is threaded on a centre line may also turn about it (the reference has no such DoF)
+        "RodCtl": lambda: (_slide("t", slides_off), _spin("spin")),
         "Tube": lambda: (_slide("t", slides_off), _spin("theta", 180.0)),
         "TubeCtl": lambda: (_slide("t", slides_off), _spin("theta", 180.0)),
         "Hook": lambda: (_hook_theta(params, flags),),
@@ -282,7 +283,9 @@ def _rod(p: Mapping[str, float], x: Array) -> Array:
 
 
 def _rod_centerline(p: Mapping[str, float], x: Array) -> Array:
-    return translation(0.0, 0.0, (x[..., 0] - 0.5) * p["length"]) @ rot_x(np.full(x.shape[:-1], -90.0))
+    spin = x[..., 1] if x.shape[-1] > 1 else np.zeros(x.shape[:-1])  # about the axis: connector y
+    along = translation(0.0, 0.0, (x[..., 0] - 0.5) * p["length"]) @ rot_x(np.full(x.shape[:-1], -90.0))
+    return along @ rot_y(spin)
 
 
 def _tube_at(rho: float, p: Mapping[str, float], x: Array) -> Array:
