@@ -49,7 +49,8 @@ def test_connector_frames_match_the_reference(case: dict) -> None:
     assert primitive is not None
     assert primitive.variant == case["variant"]
     reference_dofs = [d["name"] for d in case["dofs"]]
-    # ours may add DoFs after the reference's (a centre-line rod's spin); at their defaults they change nothing
+    # ours may add DoFs after the reference's (a centre-line rod's spin), which change nothing
+    # at their defaults
     assert [d.name for d in primitive.dofs][: len(reference_dofs)] == reference_dofs
     extra = [d.default for d in primitive.dofs[len(reference_dofs) :]]
     samples = np.array([s["dofs"] + extra for s in case["samples"]], dtype=float)
