@@ -264,7 +264,7 @@ class _Elaborator:
         if key in scope.declared_at:
             raise FabhalError([_duplicate(key, lvalue.span, scope.declared_at[key])])
         type_name = _callee(call, scope)
-        args = {a.name: (evaluate(a.value, scope.numbers()), a.span) for a in call.args}
+        args = {a.name: (self._argument(a, scope), a.span) for a in call.args}
         if type_name in self.assembly_defs and type_name not in self.library.parts:
             scope.declared_at[key] = lvalue.span
             scope.assemblies[key] = self._assembly(
@@ -281,8 +281,23 @@ class _Elaborator:
         scope.parts[key] = instance
         self.parts.append(instance)
 
+    def _argument(self, argument: ast.Argument, scope: _Scope) -> Value | str:
+        """A number, or a part type passed by name to a sub-assembly (`ring: RingM`)."""
+        value = argument.value
+        if isinstance(value, ast.Name) and value.name not in scope.values:
+            if value.name in self.library.parts or value.name in self.assembly_defs:
+                return value.name
+        if isinstance(value, ast.Name) and isinstance(scope.values.get(value.name), str):
+            return scope.values[value.name]
+        return evaluate(value, scope.numbers())
+
     def _spec(
-        self, type_name: str, key: str, args: dict[str, tuple[Value, Span]], call: ast.Call, environment: bool
+        self,
+        type_name: str,
+        key: str,
+        args: dict[str, tuple[Value | str, Span]],
+        call: ast.Call,
+        environment: bool,
     ) -> PartSpec:
         if type_name in self.library.parts:
             return self.library.instantiate(type_name, args, call.span)
@@ -306,7 +321,11 @@ class _Elaborator:
         raise FabhalError([error("E301", f"unknown part type `{type_name}`", call.span, help_text)])
 
     def _assembly(
-        self, definition: ast.AssemblyDef, prefix: str, args: dict[str, tuple[Value, Span]], call: ast.Call
+        self,
+        definition: ast.AssemblyDef,
+        prefix: str,
+        args: dict[str, tuple[Value | str, Span]],
+        call: ast.Call,
     ) -> dict[str, Endpoint]:
         inner = _Scope(prefix + ".")
         known = {p.name: p for p in definition.params}
@@ -324,7 +343,7 @@ class _Elaborator:
                     raise FabhalError(
                         [error("E211", f"`{definition.name}` needs a value for `{p.name}`", call.span, None)]
                     )
-                inner.values[p.name] = evaluate(p.default, {})
+                inner.values[p.name] = self._argument(ast.Argument(p.name, p.default, p.span), inner)
             bound = inner.values[p.name]
             if p.low is not None and p.high is not None and not isinstance(bound, (str, bool)):
                 low, high = number(p.low, {}), number(p.high, {})

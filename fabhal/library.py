@@ -84,7 +84,9 @@ class Library:
     parts: Mapping[str, PartType]
     materials: Mapping[str, Material]
 
-    def instantiate(self, type_name: str, args: Mapping[str, tuple[Value, Span]], span: Span) -> PartSpec:
+    def instantiate(
+        self, type_name: str, args: Mapping[str, tuple[Value | str, Span]], span: Span
+    ) -> PartSpec:
         """Bind arguments (checked against the parameters' ranges) and evaluate the part."""
         part_type = self.parts[type_name]
         env = _bind_arguments(part_type, args, span)
@@ -95,7 +97,9 @@ class Library:
         return spec
 
 
-def bare_primitive(kind: str, name: str, args: Mapping[str, tuple[Value, Span]], span: Span) -> PartSpec:
+def bare_primitive(
+    kind: str, name: str, args: Mapping[str, tuple[Value | str, Span]], span: Span
+) -> PartSpec:
     """A one-primitive part, e.g. `Rod(length: 500, radius: 2)`; its primitive is called `name`."""
     problems: list[Diagnostic] = []
     arguments = tuple(ast.Argument(key, _literal(value, s), s) for key, (value, s) in args.items())
@@ -106,7 +110,9 @@ def bare_primitive(kind: str, name: str, args: Mapping[str, tuple[Value, Span]],
     return PartSpec(kind.capitalize(), MappingProxyType({}), (primitive,), None, None, None)
 
 
-def _literal(value: Value, span: Span) -> ast.Expr:
+def _literal(value: Value | str, span: Span) -> ast.Expr:
+    if isinstance(value, str):  # a part type's name: evaluating it reports "not a number" at the span
+        return ast.Name(value, span)
     return ast.Boolean(value, span) if isinstance(value, bool) else ast.Number(float(value), "", span)
 
 
@@ -254,7 +260,7 @@ def _parameters(definition: ast.PartDef, problems: list[Diagnostic]) -> tuple[Pa
 
 
 def _bind_arguments(
-    part_type: PartType, args: Mapping[str, tuple[Value, Span]], span: Span
+    part_type: PartType, args: Mapping[str, tuple[Value | str, Span]], span: Span
 ) -> dict[str, float]:
     problems: list[Diagnostic] = []
     known = {p.name: p for p in part_type.parameters}
@@ -269,8 +275,9 @@ def _bind_arguments(
             )
             continue
         parameter = known[name]
-        if isinstance(value, bool):
-            problems.append(error("E211", f"`{name}` is a number, not true/false", arg_span, None))
+        if isinstance(value, (bool, str)):
+            shown = "true/false" if isinstance(value, bool) else f"the part type `{value}`"
+            problems.append(error("E211", f"`{name}` is a number, not {shown}", arg_span, None))
             continue
         low, high = parameter.low, parameter.high
         if low is not None and high is not None and not low <= value <= high:
