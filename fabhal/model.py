@@ -22,7 +22,7 @@ import numpy as np
 
 from fabhal.elaborate import Connection, FlatProgram, PartInstance
 from fabhal.kinematics.frames import Array, frame_matrix, invert
-from fabhal.primitives import Dof, Primitive, alignment_offset
+from fabhal.primitives import FRAME_FORMULAS, Dof, FrameFormula, Primitive, alignment_offset
 
 # closure residuals put rotation next to position (mm): the rotation error's
 # matrix entries (R - I, about the angle in radians for small angles) count as
@@ -88,9 +88,10 @@ class Model:
     def part_index(self, name: str) -> int:
         return next(i for i, p in enumerate(self.parts) if p.name == name)
 
-    # ---- kinematics
+    # ---- kinematics (vectorised over all connections; see `layout`)
 
     def connector_frame(self, side: Side, x: Array, part_frames: Array) -> Array:
+        """(4, 4) world frame of one side's connector."""
         values = x[list(side.dof_indices)]
         return part_frames[side.part] @ side.primitive.connector_frames(values)
 
@@ -99,41 +100,34 @@ class Model:
         return self.forward(x).frames
 
     def forward(self, x: Array, with_twists: bool = False) -> Forward:
-        """Part frames and, if asked, each DoF's world twist (d frame / d x_i = twist_i @ frame)
-        with the set of parts it moves."""
-        frames = np.tile(np.eye(4), (len(self.parts), 1, 1))
-        for i, part in enumerate(self.parts):
-            if part.environment:
-                frames[i] = frame_matrix(part.position, part.rotation)
-        twists: dict[int, Array] = {}
-        for edge in self.tree:
-            joint = self.joints[edge.joint]
-            parent, child = (joint.a, joint.b) if edge.parent_side == "a" else (joint.b, joint.a)
-            offset = joint.offset if edge.parent_side == "a" else joint.offset.T
-            parent_local = parent.primitive.connector_frames(x[list(parent.dof_indices)])
-            child_local = child.primitive.connector_frames(x[list(child.dof_indices)])
-            parent_to_world = frames[parent.part]
-            frames[child.part] = parent_to_world @ parent_local @ offset @ invert(child_local)
-            if with_twists:
-                # moving a parent-side DoF turns the child about the parent connector...
-                for i, d_local in _local_derivatives(parent, x):
-                    twists[i] = parent_to_world @ d_local @ invert(parent_to_world @ parent_local)
-                # ...a child-side DoF moves the child against its own connector
-                child_to_world = frames[child.part]
-                for i, d_local in _local_derivatives(child, x):
-                    twists[i] = -child_to_world @ d_local @ invert(child_to_world @ child_local)
-        return Forward(frames, twists)
+        """Part frames and, if asked, each DoF's world twist: d(frame)/dx_i =
+        twists[i] @ frame for the parts DoF i moves (`moves[i]`)."""
+        layout = self.layout
+        local = layout.local_frames(x)
+        frames = layout.environment_frames.copy()
+        inverse_local = invert(local)
+        for level in layout.levels:  # all parts at one depth of the tree at once
+            frames[level.child] = (
+                frames[level.parent]
+                @ local[level.parent_side]
+                @ level.offset
+                @ inverse_local[level.child_side]
+            )
+        if not with_twists:
+            return Forward(frames, None, None)
+        # the twist of a DoF turns its side's part about that side's connector:
+        # W dL inv(W L); a parent-side DoF moves the child with it, a child-side
+        # DoF moves the child against its own connector (the minus sign)
+        on_part = frames[layout.dof_part]
+        own = on_part @ layout.local_derivatives(x) @ invert(on_part @ local[layout.dof_side])
+        return Forward(frames, layout.tree_sign[:, None, None] * own, own)
 
     def closure_errors(self, x: Array, frames: Array | None = None) -> Array:
         """(n_closures, 4, 4): inv(world(a) @ offset) @ world(b), the identity when a loop closes."""
         if frames is None:
             frames = self.part_frames(x)
-        out = np.zeros((len(self.closures), 4, 4))
-        for k, j in enumerate(self.closures):
-            joint = self.joints[j]
-            a = self.connector_frame(joint.a, x, frames) @ joint.offset
-            out[k] = invert(a) @ self.connector_frame(joint.b, x, frames)
-        return out
+        world_a, world_b = self.layout.closure_worlds(x, frames)
+        return invert(world_a) @ world_b
 
     def closure_residuals(self, x: Array, frames: Array | None = None) -> Array:
         """(n_closures * 12,): per loop the position error (mm) and the rotation
@@ -145,94 +139,220 @@ class Model:
 
     def closure_jacobian(self, x: Array) -> Array:
         """(n_closures * 12, n_dofs) exact derivative of `closure_residuals`."""
+        layout = self.layout
         fwd = self.forward(x, with_twists=True)
-        moved = self.moved
-        jac = np.zeros((len(self.closures), 12, len(self.variables)))
-        for k, j in enumerate(self.closures):
-            joint = self.joints[j]
-            world_a = self.connector_frame(joint.a, x, fwd.frames) @ joint.offset
-            world_b = self.connector_frame(joint.b, x, fwd.frames)
-            inv_a = invert(world_a)
-            for i, twist in fwd.twists.items():
-                a_moves, b_moves = joint.a.part in moved[i], joint.b.part in moved[i]
-                if a_moves != b_moves:
-                    change = twist if b_moves else -twist
-                    jac[k, :, i] = _residual_change(inv_a @ change @ world_b)
-            for side, sign in ((joint.a, -1.0), (joint.b, 1.0)):
-                to_world = fwd.frames[side.part]
-                local = side.primitive.connector_frames(x[list(side.dof_indices)])
-                for i, d_local in _local_derivatives(side, x):
-                    twist = to_world @ d_local @ invert(to_world @ local)
-                    jac[k, :, i] += sign * _residual_change(inv_a @ twist @ world_b)
-        return jac.reshape(len(self.closures) * 12, len(self.variables))
+        assert fwd.own_twists is not None
+        world_a, world_b = layout.closure_worlds(x, fwd.frames)
+        # d error = c * inv(world a) @ twist @ world b, c = how the DoF moves b relative to a
+        d_errors = np.einsum(
+            "ki,kab,ibc,kcd->kiad", layout.closure_coefficients, invert(world_a), fwd.own_twists, world_b
+        )
+        n_closures, n_dofs = d_errors.shape[:2]
+        rows = np.concatenate(
+            [d_errors[..., :3, 3], d_errors[..., :3, :3].reshape(n_closures, n_dofs, 9) * ROTATION_LENGTH_MM],
+            axis=2,
+        )  # (k, i, 12)
+        return rows.transpose(0, 2, 1).reshape(n_closures * 12, n_dofs)
 
     def point_derivatives(self, fwd: Forward, part: int, point: Array) -> Array:
         """(n_dofs, 3): d(world position of `point`, given in `part`'s frame) / dx."""
+        assert fwd.twists is not None
         world = fwd.frames[part][:3, :3] @ point + fwd.frames[part][:3, 3]
-        out = np.zeros((len(self.variables), 3))
-        for i, twist in fwd.twists.items():
-            if part in self.moved[i]:
-                out[i] = twist[:3, :3] @ world + twist[:3, 3]
-        return out
+        moving = self.layout.moves[:, part, None]
+        return moving * (fwd.twists[:, :3, :3] @ world + fwd.twists[:, :3, 3])
 
     def frame_derivatives(self, fwd: Forward, part: int) -> Array:
         """(n_dofs, 4, 4): d(part-to-world frame of `part`) / dx."""
-        out = np.zeros((len(self.variables), 4, 4))
-        for i, twist in fwd.twists.items():
-            if part in self.moved[i]:
-                out[i] = twist @ fwd.frames[part]
-        return out
+        assert fwd.twists is not None
+        return self.layout.moves[:, part, None, None] * (fwd.twists @ fwd.frames[part])
 
     @cached_property
-    def moved(self) -> dict[int, set[int]]:
-        """For each tree DoF, the parts that move with it (the child's subtree)."""
-        return self._moved_parts()
-
-    def _moved_parts(self) -> dict[int, set[int]]:
-        """For each tree DoF, the parts that move with it (the child's subtree)."""
-        children: dict[int, list[int]] = {}
-        child_of_edge: dict[int, int] = {}
-        for edge in self.tree:
-            joint = self.joints[edge.joint]
-            parent, child = (joint.a, joint.b) if edge.parent_side == "a" else (joint.b, joint.a)
-            children.setdefault(parent.part, []).append(child.part)
-            child_of_edge[edge.joint] = child.part
-        moved: dict[int, set[int]] = {}
-        for edge in self.tree:
-            subtree, stack = set(), [child_of_edge[edge.joint]]
-            while stack:
-                part = stack.pop()
-                subtree.add(part)
-                stack.extend(children.get(part, []))
-            joint = self.joints[edge.joint]
-            for i in joint.a.dof_indices + joint.b.dof_indices:
-                moved[i] = subtree
-        return moved
+    def layout(self) -> ChainLayout:
+        return _chain_layout(self)
 
 
 @dataclass(frozen=True)
 class Forward:
     frames: Array  # (n_parts, 4, 4)
-    twists: dict[int, Array]  # tree DoF index -> (4, 4) world twist
+    twists: Array | None  # (n_dofs, 4, 4) world twist of each tree DoF (zero for the others)
+    own_twists: Array | None  # (n_dofs, 4, 4) each DoF's twist of its own side's connector
+
+
+@dataclass(frozen=True)
+class SideGroup:
+    """The connection sides of one primitive variant, evaluated together."""
+
+    sides: Array  # (n,) side indices: 2 * joint + (0 for a, 1 for b)
+    formula: FrameFormula
+    params: dict[str, Array]  # (n,) each
+    base: Array  # (n, 4, 4) primitive-in-part frames
+    dofs: Array  # (n, k) indices into x
+
+
+@dataclass(frozen=True)
+class TreeLevel:
+    """The tree edges whose child is at one depth below the environments."""
+
+    parent: Array  # (m,) part indices
+    child: Array
+    parent_side: Array  # (m,) side indices
+    child_side: Array
+    offset: Array  # (m, 4, 4) alignment, oriented parent -> child
+
+
+@dataclass(frozen=True)
+class ChainLayout:
+    """Index arrays that turn the model's kinematics into batched numpy products."""
+
+    groups: tuple[SideGroup, ...]
+    n_sides: int
+    n_dofs: int
+    environment_frames: Array  # (n_parts, 4, 4); identity for parts the tree places
+    levels: tuple[TreeLevel, ...]
+    dof_side: Array  # (n_dofs,) side of each DoF
+    dof_part: Array  # (n_dofs,) part of that side
+    tree_sign: Array  # (n_dofs,) +1 parent side, -1 child side, 0 off the tree
+    moves: Array  # (n_dofs, n_parts) bool: the parts a tree DoF moves (the child's subtree)
+    closure_sides: tuple[Array, Array, Array, Array]  # a side, a part, b side, b part: (k,) each
+    closure_offsets: Array  # (k, 4, 4)
+    closure_coefficients: Array  # (k, n_dofs): +1 moves b against a, -1 a against b
+
+    def local_frames(self, x: Array) -> Array:
+        """(n_sides, 4, 4): every side's connector frame in its part."""
+        out = np.empty((self.n_sides, 4, 4))
+        for group in self.groups:
+            out[group.sides] = group.base @ group.formula(group.params, x[group.dofs])
+        return out
+
+    def local_derivatives(self, x: Array) -> Array:
+        """(n_dofs, 4, 4): d(connector frame in its part)/dx_i for each DoF's own
+        side, to ~1e-10 (central differences of the smooth closed-form formulas)."""
+        out = np.zeros((self.n_dofs, 4, 4))
+        for group in self.groups:
+            n, k = group.dofs.shape
+            if k == 0:
+                continue
+            probes = np.repeat(x[group.dofs][:, None, :], 2 * k, axis=1)  # (n, 2k, k)
+            steps = np.zeros((2 * k, k))
+            steps[0::2][np.arange(k), np.arange(k)] = _STEP
+            steps[1::2][np.arange(k), np.arange(k)] = -_STEP
+            params = {name: values[:, None] for name, values in group.params.items()}
+            frames = group.base[:, None] @ group.formula(params, probes + steps)  # (n, 2k, 4, 4)
+            derivative = (frames[:, 0::2] - frames[:, 1::2]) / (2 * _STEP)  # (n, k, 4, 4)
+            out[group.dofs.ravel()] = derivative.reshape(n * k, 4, 4)
+        return out
+
+    def closure_worlds(self, x: Array, frames: Array) -> tuple[Array, Array]:
+        """(k, 4, 4) world frames of each loop's a connector (with the offset) and b connector."""
+        a_side, a_part, b_side, b_part = self.closure_sides
+        local = self.local_frames(x)
+        return frames[a_part] @ local[a_side] @ self.closure_offsets, frames[b_part] @ local[b_side]
 
 
 _STEP = 1e-6  # central differences of one connector formula: error ~1e-12 relative
 
 
-def _local_derivatives(side: Side, x: Array) -> list[tuple[int, Array]]:
-    """(DoF index, d(B @ C)/dx) per DoF of a side: the derivative of the side's
-    connector frame in its part, to ~1e-10 (central differences of the
-    closed-form formula, which is smooth)."""
-    values = x[list(side.dof_indices)]
-    k = len(values)
-    if k == 0:
-        return []
-    probes = np.repeat(values[None, :], 2 * k, axis=0)
-    for d in range(k):
-        probes[2 * d, d] += _STEP
-        probes[2 * d + 1, d] -= _STEP
-    frames = side.primitive.connector_frames(probes)  # (B @ C) at each probe
-    return [(side.dof_indices[d], (frames[2 * d] - frames[2 * d + 1]) / (2 * _STEP)) for d in range(k)]
+def _chain_layout(model: Model) -> ChainLayout:
+    sides = [side for joint in model.joints for side in (joint.a, joint.b)]
+    n_dofs, n_parts = len(model.variables), len(model.parts)
+    by_variant: dict[str, list[int]] = {}
+    for s, side in enumerate(sides):
+        by_variant.setdefault(side.primitive.variant, []).append(s)
+    groups = []
+    for variant, members in by_variant.items():
+        primitives = [sides[s].primitive for s in members]
+        names = set.intersection(*(set(p.params) for p in primitives))
+        groups.append(
+            SideGroup(
+                np.array(members),
+                FRAME_FORMULAS[variant],
+                {name: np.array([p.params[name] for p in primitives]) for name in sorted(names)},
+                np.stack([p.base_frame() for p in primitives]),
+                np.array([sides[s].dof_indices for s in members], dtype=int).reshape(len(members), -1),
+            )
+        )
+    environment_frames = np.tile(np.eye(4), (n_parts, 1, 1))
+    for i, part in enumerate(model.parts):
+        if part.environment:
+            environment_frames[i] = frame_matrix(part.position, part.rotation)
+    dof_side = np.zeros(n_dofs, dtype=int)
+    for s, side in enumerate(sides):
+        dof_side[list(side.dof_indices)] = s
+    tree_sign = np.zeros(n_dofs)
+    moves = np.zeros((n_dofs, n_parts), dtype=bool)
+    subtrees = _subtrees(model)
+    for edge in model.tree:
+        joint = model.joints[edge.joint]
+        parent, child = (joint.a, joint.b) if edge.parent_side == "a" else (joint.b, joint.a)
+        tree_sign[list(parent.dof_indices)] = 1.0
+        tree_sign[list(child.dof_indices)] = -1.0
+        for i in joint.a.dof_indices + joint.b.dof_indices:
+            moves[i, list(subtrees[child.part])] = True
+    closures = [model.joints[j] for j in model.closures]
+    a_side = np.array([2 * j.index for j in closures], dtype=int)
+    b_side = a_side + 1
+    a_part = np.array([j.a.part for j in closures], dtype=int)
+    b_part = np.array([j.b.part for j in closures], dtype=int)
+    coefficients = (moves[:, b_part].T.astype(float) - moves[:, a_part].T) * tree_sign
+    for k, joint in enumerate(closures):
+        coefficients[k, list(joint.a.dof_indices)] = -1.0
+        coefficients[k, list(joint.b.dof_indices)] = 1.0
+    return ChainLayout(
+        tuple(groups),
+        len(sides),
+        n_dofs,
+        environment_frames,
+        _tree_levels(model),
+        dof_side,
+        np.array([sides[s].part for s in dof_side], dtype=int),
+        tree_sign,
+        moves,
+        (a_side, a_part, b_side, b_part),
+        np.array([j.offset for j in closures]).reshape(len(closures), 4, 4),
+        coefficients,
+    )
+
+
+def _subtrees(model: Model) -> dict[int, set[int]]:
+    """For each part, itself and every part hung below it in the tree."""
+    children: dict[int, list[int]] = {}
+    for edge in model.tree:
+        joint = model.joints[edge.joint]
+        parent, child = (joint.a, joint.b) if edge.parent_side == "a" else (joint.b, joint.a)
+        children.setdefault(parent.part, []).append(child.part)
+    subtrees: dict[int, set[int]] = {}
+    for part in range(len(model.parts)):
+        found, stack = set(), [part]
+        while stack:
+            here = stack.pop()
+            found.add(here)
+            stack.extend(children.get(here, []))
+        subtrees[part] = found
+    return subtrees
+
+
+def _tree_levels(model: Model) -> tuple[TreeLevel, ...]:
+    depth = {i: 0 for i, p in enumerate(model.parts) if p.environment}
+    levels: dict[int, list[tuple[int, int, int, int, Array]]] = {}
+    for edge in model.tree:  # parents come before children
+        joint = model.joints[edge.joint]
+        parent, child = (joint.a, joint.b) if edge.parent_side == "a" else (joint.b, joint.a)
+        offset = joint.offset if edge.parent_side == "a" else joint.offset.T
+        parent_side = 2 * joint.index + (0 if edge.parent_side == "a" else 1)
+        depth[child.part] = depth[parent.part] + 1
+        levels.setdefault(depth[child.part], []).append(
+            (parent.part, child.part, parent_side, parent_side ^ 1, offset)
+        )
+    return tuple(
+        TreeLevel(
+            np.array([e[0] for e in edges], dtype=int),
+            np.array([e[1] for e in edges], dtype=int),
+            np.array([e[2] for e in edges], dtype=int),
+            np.array([e[3] for e in edges], dtype=int),
+            np.array([e[4] for e in edges]),
+        )
+        for _, edges in sorted(levels.items())
+    )
 
 
 def _residual_change(d_error: Array) -> Array:

@@ -275,62 +275,63 @@ def dofs_of(variant: str, params: Mapping[str, float], flags: Mapping[str, bool]
 
 # ---------------------------------------------------------------- connector frames
 
-FrameFormula = Callable[[Mapping[str, float], Array], Array]
+# parameters are numbers, or (n,) arrays when many primitives of one variant are evaluated together
+FrameFormula = Callable[[Mapping[str, float | Array], Array], Array]
 
 
-def _rod(p: Mapping[str, float], x: Array) -> Array:
+def _rod(p: Mapping[str, float | Array], x: Array) -> Array:
     return translation(0.0, p["radius"], (x[..., 0] - 0.5) * p["length"]) @ rot_x(x[..., 1] - 180.0)
 
 
-def _rod_centerline(p: Mapping[str, float], x: Array) -> Array:
+def _rod_centerline(p: Mapping[str, float | Array], x: Array) -> Array:
     spin = x[..., 1] if x.shape[-1] > 1 else np.zeros(x.shape[:-1])  # about the axis: connector y
     along = translation(0.0, 0.0, (x[..., 0] - 0.5) * p["length"]) @ rot_x(np.full(x.shape[:-1], -90.0))
     return along @ rot_y(spin)
 
 
-def _tube_at(rho: float, p: Mapping[str, float], x: Array) -> Array:
+def _tube_at(rho: float | Array, p: Mapping[str, float | Array], x: Array) -> Array:
     theta = np.radians(x[..., 1])
     along = translation(0.0, 0.0, (x[..., 0] - 0.5) * p["length"]) @ rot_x(np.full(x.shape[:-1], -90.0))
     around = translation(-rho * np.sin(theta), 0.0, -rho * np.cos(theta)) @ rot_y(x[..., 1])
     return along @ around
 
 
-def _tube(p: Mapping[str, float], x: Array) -> Array:
+def _tube(p: Mapping[str, float | Array], x: Array) -> Array:
     return _tube_at(p["inner_radius"] + p["thickness"], p, x)
 
 
-def _tube_centerline(p: Mapping[str, float], x: Array) -> Array:
+def _tube_centerline(p: Mapping[str, float | Array], x: Array) -> Array:
     return _tube_at(p["inner_radius"], p, x)
 
 
-def _arc(p: Mapping[str, float], x: Array) -> Array:
+def _arc(p: Mapping[str, float | Array], x: Array) -> Array:
     rho = p["arc_radius"] - p["thickness"]
     theta = np.radians(x[..., 0])
     return translation(0.0, -rho * np.sin(theta), -rho * np.cos(theta)) @ rot_x(-x[..., 0])
 
 
-def _arc_flex(p: Mapping[str, float], x: Array) -> Array:
+def _arc_flex(p: Mapping[str, float | Array], x: Array) -> Array:
     return _arc(p, x) @ rot_z(x[..., 1] - 90.0)
 
 
-def _ring_centerline(p: Mapping[str, float], x: Array) -> Array:
+def _ring_centerline(p: Mapping[str, float | Array], x: Array) -> Array:
     return rot_y(x[..., 0]) @ rot_x(x[..., 1])
 
 
-def _clip(p: Mapping[str, float], x: Array) -> Array:
+def _clip(p: Mapping[str, float | Array], x: Array) -> Array:
     return translation(0.0, 0.0, (x[..., 0] - 0.5) * p["height"])
 
 
-def _edge(p: Mapping[str, float], x: Array) -> Array:
+def _edge(p: Mapping[str, float | Array], x: Array) -> Array:
     return translation((x[..., 0] - 0.5) * p["length"], p["width"] / 2.0, 0.0)
 
 
-def _surface(p: Mapping[str, float], x: Array) -> Array:
+def _surface(p: Mapping[str, float | Array], x: Array) -> Array:
     offset = translation((x[..., 1] - 0.5) * p["length"], (0.5 - x[..., 0]) * p["width"], 0.05)
     return offset @ rot_z(x[..., 2])
 
 
-def _hemisphere(p: Mapping[str, float], x: Array) -> Array:
+def _hemisphere(p: Mapping[str, float | Array], x: Array) -> Array:
     r = p["radius"]
     theta, phi = np.radians(x[..., 0]), np.radians(x[..., 1])
     on_dome = translation(r * np.sin(phi), r * np.cos(phi) * np.sin(theta), -r * np.cos(phi) * np.cos(theta))

@@ -27,6 +27,7 @@ from fabhal.solve.spacing import Spacing, spacing_jacobian, spacing_values
 
 GRAVITY = 9.81  # m/s2
 CLOSED_MM = 1e-6
+FIT_EVALUATIONS = 200  # per start of step 1 without loops
 
 # rows (per loop) of the 12 closure residuals kept as the 6 constraint equations:
 # position (3) and vee((R - R^T) / 2) from the 9 rotation entries
@@ -75,10 +76,26 @@ class Problem:
     def spacing_jacobian(self) -> Array:
         return spacing_jacobian(self.spacing, len(self.x_base))[:, self.free]
 
-    def constraints(self) -> list[dict[str, object]]:
+    def constraints(self, at: Array | None = None) -> list[dict[str, object]]:
+        """SLSQP's constraint list. With `at`, the closure equations are reduced to
+        their independent combinations there: a loop through symmetric joints (a
+        tube in a tube, a ring on a ring) repeats equations, and SLSQP stops on the
+        singular system ("Singular matrix C"). The dropped combinations are the
+        ones that do not change to first order, so near `at` nothing is lost; the
+        result is projected onto all the equations afterwards (`_project`)."""
         found: list[dict[str, object]] = []
         if self.model.closures:
-            found.append({"type": "eq", "fun": self.closure, "jac": self.closure_jacobian})
+            basis = _independent_rows(self.closure_jacobian(at)) if at is not None else None
+            if basis is None:
+                found.append({"type": "eq", "fun": self.closure, "jac": self.closure_jacobian})
+            else:
+                found.append(
+                    {
+                        "type": "eq",
+                        "fun": lambda v: basis @ self.closure(v),
+                        "jac": lambda v: basis @ self.closure_jacobian(v),
+                    }
+                )
         if self.spacing:
             constant = self.spacing_jacobian()
             found.append({"type": "ineq", "fun": self.spacing_values, "jac": lambda v: constant})
@@ -121,7 +138,13 @@ def fit_target(problem: Problem, goal: target_mod.TargetGoal, starts: list[Array
             from scipy.optimize import least_squares
 
             v = least_squares(
-                residual, start, jac=jacobian, bounds=(low, high), method="trf", x_scale="jac", max_nfev=200
+                residual,
+                start,
+                jac=jacobian,
+                bounds=(low, high),
+                method="trf",
+                x_scale="jac",
+                max_nfev=FIT_EVALUATIONS,
             ).x
         cost = float(residual(v) @ residual(v))
         if cost < best_cost and _feasible(problem, v):
@@ -193,11 +216,21 @@ def _slsqp(
         jac=gradient,
         method="SLSQP",
         bounds=bounds,
-        constraints=problem.constraints(),
+        constraints=problem.constraints(at=start),
         options={"maxiter": 300, "ftol": 1e-12},
     )
     v = np.clip(result.x, low, high)
     return _project(problem, v)
+
+
+def _independent_rows(jacobian: Array) -> Array | None:
+    """(r, m) orthonormal combinations of the m equations spanning the Jacobian's
+    row image (singular values above 1e-9 of the largest), or None if all are independent."""
+    left, singular, _ = np.linalg.svd(jacobian, full_matrices=False)
+    rank = int(np.sum(singular > 1e-9 * max(float(singular[0]), 1e-300))) if len(singular) else 0
+    if rank == jacobian.shape[0]:
+        return None
+    return left[:, :rank].T
 
 
 def _project(problem: Problem, v: Array) -> Array:

@@ -94,21 +94,24 @@ def _geodesic(a: Array, b: Array) -> float:
 
 def residual(goal: TargetGoal, frame: Array) -> Array:
     """Smooth residual whose zero set is the requested frame up to symmetry."""
-    rotation_part = _rotation_residual(goal, frame[:3, :3], None)
+    rotation_part = _rotation_residual(goal, frame[:3, :3])
     return np.concatenate([frame[:3, 3] - goal.requested[:3, 3], ROTATION_WEIGHT_MM * rotation_part])
 
 
 def residual_jacobian(goal: TargetGoal, model: Model, fwd: Forward) -> Array:
     """(len(residual), n_dofs)."""
-    frame = achieved(goal, fwd.frames)
     d_frames = model.frame_derivatives(fwd, goal.part) @ goal.local()  # (n, 4, 4)
     d_position = d_frames[:, :3, 3].T
-    d_rotation = np.stack([_rotation_residual(goal, frame[:3, :3], d[:3, :3]) for d in d_frames], axis=1)
-    return np.vstack([d_position, ROTATION_WEIGHT_MM * d_rotation])
+    d_rotation = d_frames[:, :3, :3]
+    if goal.symmetry is not None and goal.symmetry[0] == "axis":
+        d_residual = (d_rotation @ _AXES[goal.symmetry[1]]).T  # only the axis counts
+    else:
+        d_residual = d_rotation.reshape(len(d_frames), 9).T
+    return np.vstack([d_position, ROTATION_WEIGHT_MM * d_residual])
 
 
-def _rotation_residual(goal: TargetGoal, rotation: Array, d_rotation: Array | None) -> Array:
-    """The rotation residual, or (with d_rotation) its change for that change of rotation."""
+def _rotation_residual(goal: TargetGoal, rotation: Array) -> Array:
+    """The rotation residual: the difference to the nearest rotation the symmetry allows."""
     wanted = goal.requested[:3, :3]
     symmetry = goal.symmetry
     if symmetry is not None and symmetry[0] == "axis":
@@ -117,13 +120,9 @@ def _rotation_residual(goal: TargetGoal, rotation: Array, d_rotation: Array | No
         sign = 1.0
         if flips and float((rotation @ axis) @ (wanted @ axis)) < 0.0:
             sign = -1.0  # the nearer end of a symmetric axis
-        if d_rotation is not None:
-            return d_rotation @ axis
         return rotation @ axis - sign * (wanted @ axis)
     if symmetry is not None:
         turned = wanted @ _HALF_TURN[symmetry[1]][:3, :3]
         if _geodesic(turned, rotation) < _geodesic(wanted, rotation):
             wanted = turned
-    if d_rotation is not None:
-        return d_rotation.ravel()
     return (rotation - wanted).ravel()
