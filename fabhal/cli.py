@@ -25,6 +25,7 @@ MAIN_EPILOG = """\
 examples:
   fabhal solve programs/mug_hanger.fhl       where every part ends up, hanging at rest
   fabhal solve --json -o out.json prog.fhl   the full result as JSON
+  fabhal render programs/mug_hanger.fhl -o mug.png   draw it (.png .html .glb .obj .stl)
   fabhal check programs/mug_hanger.fhl       validate a program, report every problem
   fabhal check --json programs/*.fhl         the same as a JSON array, for tools
   fabhal parts                               the part library, one line per part
@@ -82,6 +83,28 @@ exit status: 0 solved, 1 falls apart / infeasible / errors in the program,
 """
 
 
+RENDER_EPILOG = """\
+examples:
+  fabhal render programs/mug_hanger.fhl -o mug.png          a picture (no display needed)
+  fabhal render programs/mug_hanger.fhl -o mug.png --views iso,front,side
+  fabhal render programs/bird_feeder.fhl -o feeder.html     open in a browser: orbit, zoom, hover
+  fabhal render programs/demo.fhl -o demo.glb --primitives  3D file for Blender, a CAD tool, ...
+  fabhal render my_hack.fhl -o before.png --show requested  ghost of the target where you asked for it
+  fabhal solve programs/mug_hanger.fhl --render mug.png     solve, report and render in one go
+
+The suffix of OUT picks the format: .png (three-quarter view, optionally front,
+side and top views; parts labelled; the requested target frame as long axes,
+the achieved one as short axes), .html (one self-contained page, works
+offline), .glb / .obj / .stl (one node per part at its solved frame;
+environments grey, the target orange). `--show requested` adds a see-through
+copy of the target at its requested frame and, when the design falls apart,
+a red ball on the connection that comes apart.
+
+exit status: 0 solved and written, 1 the design falls apart or cannot be
+solved (a falling design is still drawn), 2 a file could not be read or written.
+"""
+
+
 class _Parser(argparse.ArgumentParser):
     def error(self, message: str) -> NoReturn:
         self.print_usage(sys.stderr)
@@ -104,6 +127,67 @@ def _add_define(command: argparse.ArgumentParser) -> None:
         default=[],
         metavar="NAME=VALUE",
         help="bind a `param` of the program (repeatable), e.g. -D n=3 -D Ring=RingM",
+    )
+
+
+def _add_solver_options(command: argparse.ArgumentParser) -> None:
+    command.add_argument("--seed", type=int, default=0, help="seed for the random starts (default 0)")
+    command.add_argument(
+        "--time-limit", type=float, metavar="SECONDS", help="stop with the best result so far"
+    )
+    command.add_argument("--no-gravity", action="store_true", help="skip step 2 (settling under gravity)")
+    _add_define(command)
+
+
+def _views(text: str) -> tuple[str, ...]:
+    from fabhal.render.picture import VIEWS
+
+    views = tuple(v.strip() for v in text.split(",") if v.strip())
+    unknown = [v for v in views if v not in VIEWS]
+    if not views or unknown:
+        raise argparse.ArgumentTypeError(
+            f"views are a comma-separated list of {', '.join(VIEWS)}; got {text!r}"
+        )
+    return views
+
+
+def _size(text: str) -> tuple[int, int]:
+    width, sep, height = text.lower().partition("x")
+    if (
+        not sep
+        or not width.isdigit()
+        or not height.isdigit()
+        or not (100 <= int(width) <= 8000 and 100 <= int(height) <= 8000)
+    ):
+        raise argparse.ArgumentTypeError(
+            f"expected WIDTHxHEIGHT in pixels (100 to 8000), e.g. 1200x900; got {text!r}"
+        )
+    return int(width), int(height)
+
+
+def _add_drawing_options(command: argparse.ArgumentParser) -> None:
+    command.add_argument(
+        "--show",
+        choices=["requested"],
+        help="`requested`: also draw the target at its requested frame (see-through) "
+        "and mark a connection that comes apart",
+    )
+    command.add_argument(
+        "--primitives", action="store_true", help="also draw every part's connector primitives"
+    )
+    command.add_argument(
+        "--views",
+        type=_views,
+        default=("iso",),
+        metavar="LIST",
+        help="PNG views, from iso,front,side,top (default iso)",
+    )
+    command.add_argument(
+        "--size",
+        type=_size,
+        default=(1200, 900),
+        metavar="WxH",
+        help="PNG pixels per view (default 1200x900)",
     )
 
 
@@ -144,11 +228,36 @@ def build_parser() -> argparse.ArgumentParser:
     solve.add_argument(
         "-o", "--output", type=Path, metavar="FILE.json", help="write the JSON result to a file"
     )
-    solve.add_argument("--seed", type=int, default=0, help="seed for the random starts (default 0)")
-    solve.add_argument("--time-limit", type=float, metavar="SECONDS", help="stop with the best result so far")
-    solve.add_argument("--no-gravity", action="store_true", help="skip step 2 (settling under gravity)")
-    _add_define(solve)
+    _add_solver_options(solve)
+    solve.add_argument(
+        "--render",
+        type=Path,
+        metavar="OUT",
+        help="also draw the result (.png .html .glb .obj .stl, see `render`)",
+    )
+    _add_drawing_options(solve)
     solve.set_defaults(run=run_solve)
+
+    render = commands.add_parser(
+        "render",
+        help="solve a program and draw it: picture, 3D file or browser viewer",
+        description="Solve a program and write the result as a picture (.png), a self-contained "
+        "3D viewer page (.html) or a 3D file (.glb, .obj, .stl).",
+        epilog=RENDER_EPILOG,
+        formatter_class=formatter,
+    )
+    render.add_argument("file", type=Path, metavar="FILE", help=".fhl program to solve and draw")
+    render.add_argument(
+        "-o",
+        "--output",
+        type=Path,
+        required=True,
+        metavar="OUT",
+        help="where to write; the suffix picks the format",
+    )
+    _add_drawing_options(render)
+    _add_solver_options(render)
+    render.set_defaults(run=run_render)
 
     parts = commands.add_parser(
         "parts",
@@ -200,6 +309,8 @@ def run_solve(args: argparse.Namespace) -> int:
     from fabhal.load import InputError, display_name
     from fabhal.report import solution as report
 
+    if _unknown_format(args.render):
+        return EXIT_USAGE
     try:
         result = api.solve(args.file, dict(args.define), args.seed, args.time_limit, not args.no_gravity)
     except InputError as exc:
@@ -220,7 +331,63 @@ def run_solve(args: argparse.Namespace) -> int:
         console = _console()
         for renderable in report.renderables(result, name):
             console.print(renderable)
+    if args.render is not None:
+        written = _render(result, args.render, args, data)
+        if written is not None:
+            return written
     return EXIT_OK if result.status == "solved" else EXIT_DIAGNOSTICS
+
+
+def run_render(args: argparse.Namespace) -> int:
+    from fabhal import api
+    from fabhal.load import InputError, display_name
+    from fabhal.report import solution as report
+
+    if _unknown_format(args.output):
+        return EXIT_USAGE
+    try:
+        result = api.solve(args.file, dict(args.define), args.seed, args.time_limit, not args.no_gravity)
+    except InputError as exc:
+        _print_diagnostics(exc.diagnostics, {})
+        return EXIT_USAGE
+    _print_diagnostics(result.diagnostics, result.check.sources)
+    written = _render(result, args.output, args, report.to_dict(result, display_name(args.file.resolve())))
+    if written is not None:
+        return written
+    return EXIT_OK if result.status == "solved" else EXIT_DIAGNOSTICS
+
+
+def _unknown_format(output: Path | None) -> bool:
+    """Say so (before any solving) if `output`'s suffix is not a format `render` writes."""
+    from fabhal.render import FORMATS
+
+    if output is None or output.suffix.lower() in FORMATS:
+        return False
+    print(
+        f"fabhal: cannot render to `{output}`: the suffix picks the format, one of {' '.join(FORMATS)}",
+        file=sys.stderr,
+    )
+    return True
+
+
+def _render(result: Any, output: Path, args: argparse.Namespace, summary: dict[str, Any]) -> int | None:
+    """Draw the solution to `output`; an exit code if that failed, else None."""
+    from fabhal.render import RenderOptions, render
+
+    if result.solution is None:
+        print(
+            f"fabhal: nothing to draw: the program {result.status.replace('_', ' ')} (see above)",
+            file=sys.stderr,
+        )
+        return EXIT_DIAGNOSTICS
+    options = RenderOptions(args.show == "requested", args.primitives, args.views, args.size)
+    try:
+        render(result.solution, args.file.stem, output, options, summary)
+    except OSError as exc:
+        print(f"fabhal: cannot write {output}: {exc.strerror}", file=sys.stderr)
+        return EXIT_USAGE
+    print(f"wrote {output} ({result.status.replace('_', ' ')})", file=sys.stderr)
+    return None
 
 
 def run_parts(args: argparse.Namespace) -> int:

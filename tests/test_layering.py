@@ -27,6 +27,7 @@ ORDER = [
     "check",
     "solve",
     "report",
+    "render",
     "api",
     "cli",
 ]

@@ -1,0 +1,155 @@
+"""The solved scene: every part's mesh at its solved frame, coloured by role."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from fabhal.kinematics.frames import Array, invert
+from fabhal.meshes import part_mesh, primitive_mesh
+
+if TYPE_CHECKING:
+    from fabhal.solve import Solution
+
+FORMATS = (".glb", ".obj", ".stl", ".png", ".html")
+
+ENVIRONMENT_COLOR = (0.62, 0.63, 0.66)
+TARGET_COLOR = (0.96, 0.55, 0.12)
+FAILURE_COLOR = (0.86, 0.1, 0.1)
+# parts that are neither: distinct, calm hues (Tableau-like), cycled
+PART_COLORS = (
+    (0.27, 0.51, 0.71),
+    (0.35, 0.63, 0.31),
+    (0.58, 0.40, 0.74),
+    (0.09, 0.65, 0.67),
+    (0.84, 0.37, 0.56),
+    (0.55, 0.34, 0.29),
+    (0.74, 0.74, 0.13),
+)
+GHOST_OPACITY = 0.35
+FAILURE_MARK_MM = 8.0  # radius of the sphere marking a connection that comes apart
+
+
+@dataclass(frozen=True)
+class RenderOptions:
+    show_requested: bool = False  # ghost of the target at its requested frame; mark failing connections
+    primitives: bool = False  # draw each part's primitives (3D files and the viewer)
+    views: tuple[str, ...] = ("iso",)  # pictures: iso, front, side, top
+    size: tuple[int, int] = (1200, 900)  # pictures: pixels per view
+
+
+@dataclass(frozen=True)
+class SceneItem:
+    name: str  # the program's part name, `part.primitive`, or a marker's description
+    role: str  # environment, target, part, primitive, requested, failure
+    vertices: Array  # (n, 3) in the item's own frame
+    faces: np.ndarray  # (m, 3)
+    transform: Array  # (4, 4) item frame -> world
+    color: tuple[float, float, float]
+    opacity: float = 1.0
+
+    def world_vertices(self) -> Array:
+        return self.vertices @ self.transform[:3, :3].T + self.transform[:3, 3]
+
+
+@dataclass(frozen=True)
+class Scene:
+    items: tuple[SceneItem, ...]
+    title: str
+    status: str
+    requested: Array  # (4, 4) world frame the target should reach
+    achieved: Array  # (4, 4) where it is
+
+
+def build_scene(solution: Solution, title: str, options: RenderOptions) -> Scene:
+    model = solution.model
+    target_part = solution.goal.part
+    items: list[SceneItem] = []
+    colors = iter(PART_COLORS * (1 + len(model.parts) // len(PART_COLORS)))
+    for i, part in enumerate(model.parts):
+        role = "environment" if part.environment else "target" if i == target_part else "part"
+        color = {"environment": ENVIRONMENT_COLOR, "target": TARGET_COLOR}.get(role) or next(colors)
+        mesh = part_mesh(part.spec)
+        items.append(_item(part.name, role, mesh, solution.frames[i], color))
+        if options.primitives:
+            for primitive in part.spec.primitives:
+                shape = primitive_mesh(primitive)
+                name = f"{part.name}.{primitive.name}"
+                items.append(_item(name, "primitive", shape, solution.frames[i], (0.95, 0.85, 0.2)))
+    if options.show_requested:
+        requested_part = solution.goal.requested @ invert(solution.goal.local())
+        ghost = part_mesh(model.parts[target_part].spec)
+        name = f"{model.parts[target_part].name} (requested)"
+        items.append(_item(name, "requested", ghost, requested_part, TARGET_COLOR, GHOST_OPACITY))
+        for fall in solution.falls:
+            items.append(_failure_marker(solution, fall.joint, fall.part))
+    return Scene(tuple(items), title, solution.status, solution.goal.requested, solution.target_frame())
+
+
+def _item(
+    name: str, role: str, mesh: Any, transform: Array, color: tuple[float, float, float], opacity: float = 1.0
+) -> SceneItem:
+    return SceneItem(
+        name,
+        role,
+        np.asarray(mesh.vertices, dtype=float),
+        np.asarray(mesh.faces, dtype=int),
+        np.asarray(transform, dtype=float),
+        color,
+        opacity,
+    )
+
+
+def _failure_marker(solution: Solution, joint_index: int, part: str) -> SceneItem:
+    import trimesh
+
+    joint = solution.model.joints[joint_index]
+    where = solution.model.connector_frame(joint.a, solution.x, solution.frames)
+    ball = trimesh.creation.icosphere(subdivisions=2, radius=FAILURE_MARK_MM)
+    return _item(
+        f"{part} slides off here ({joint.connection.a} -- {joint.connection.b})",
+        "failure",
+        ball,
+        where,
+        FAILURE_COLOR,
+    )
+
+
+def render(
+    solution: Solution, title: str, path: Path, options: RenderOptions, summary: dict[str, Any]
+) -> None:
+    """Write the scene to `path`; the suffix picks the format (see FORMATS).
+    `summary` is the solve result object (fabhal.report.solution.to_dict), shown by the viewer."""
+    suffix = path.suffix.lower()
+    if suffix not in FORMATS:
+        raise ValueError(f"cannot render to `{path.name}`: the suffix must be one of {', '.join(FORMATS)}")
+    scene = build_scene(solution, title, options)
+    if suffix == ".png":
+        from fabhal.render.picture import picture_png
+
+        path.write_bytes(picture_png(scene, summary, options))
+    elif suffix == ".html":
+        from fabhal.render.viewer import viewer_html
+
+        path.write_text(viewer_html(scene, summary), encoding="utf-8")
+    else:
+        path.write_bytes(export_3d(scene, suffix))
+
+
+def export_3d(scene: Scene, suffix: str) -> bytes:
+    """One node per item, named as in the program, at its solved transform."""
+    import trimesh
+
+    out = trimesh.Scene()
+    for item in scene.items:
+        mesh = trimesh.Trimesh(item.vertices, item.faces, process=False)
+        rgba = np.array([*item.color, item.opacity]) * 255
+        mesh.visual = trimesh.visual.ColorVisuals(
+            mesh, face_colors=np.tile(rgba.astype(np.uint8), (len(item.faces), 1))
+        )
+        out.add_geometry(mesh, node_name=item.name, geom_name=item.name, transform=item.transform)
+    data = out.export(file_type=suffix.lstrip("."))
+    return data if isinstance(data, bytes) else str(data).encode()

@@ -1,0 +1,176 @@
+"""`fabhal render`: 3D files that reload, a picture that shows something, a page that renders."""
+
+from __future__ import annotations
+
+import io
+import os
+import re
+import shutil
+import subprocess
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+
+from fabhal import api
+from fabhal.render import RenderOptions, render
+from fabhal.render.picture import HEADER
+from fabhal.report.solution import to_dict
+from tests.cli.test_check_command import fabhal
+from tests.conftest import REPO
+
+
+@pytest.fixture(scope="module")
+def mug() -> Any:
+    result = api.solve(REPO / "programs" / "mug_hanger.fhl")
+    assert result.status == "solved"
+    return result
+
+
+def _render(result: Any, path: Path, **options: Any) -> None:
+    render(result.solution, "mug_hanger", path, RenderOptions(**options), to_dict(result, "mug_hanger"))
+
+
+def test_glb_reloads_with_one_node_per_part_at_its_solved_frame(mug: Any, tmp_path: Path) -> None:
+    import trimesh
+
+    path = tmp_path / "mug.glb"
+    _render(mug, path)
+    scene = trimesh.load(str(path))
+    solution = mug.solution
+    names = [part.name for part in solution.model.parts]
+    assert sorted(scene.graph.nodes_geometry) == sorted(names)
+    for i, name in enumerate(names):
+        transform, _ = scene.graph[name]
+        # GLB stores float32: 1e-3 mm on positions up to ~1 m, 1e-5 on rotation entries
+        np.testing.assert_allclose(transform[:3, 3], solution.frames[i][:3, 3], atol=1e-3)
+        np.testing.assert_allclose(transform[:3, :3], solution.frames[i][:3, :3], atol=1e-5)
+
+
+def test_glb_with_the_requested_ghost_and_primitives_adds_named_nodes(mug: Any, tmp_path: Path) -> None:
+    import trimesh
+
+    path = tmp_path / "mug.glb"
+    _render(mug, path, show_requested=True, primitives=True)
+    nodes = set(trimesh.load(str(path)).graph.nodes_geometry)
+    assert {"mug (requested)", "s1.hook1", "s1.hook2", "mug.hook"} <= nodes
+
+
+@pytest.mark.parametrize("suffix", [".obj", ".stl"])
+def test_obj_and_stl_hold_every_part_in_world_coordinates(mug: Any, tmp_path: Path, suffix: str) -> None:
+    import trimesh
+
+    path = tmp_path / f"mug{suffix}"
+    _render(mug, path)
+    mesh = trimesh.load(str(path), force="mesh")
+    # the lowest point is the mug's bottom, below the requested hook height (50 mm), not a part at its origin
+    assert mesh.bounds[0][2] < 0.0 and len(mesh.faces) > 10_000
+
+
+def test_png_has_the_requested_size_and_shows_the_hack(mug: Any, tmp_path: Path) -> None:
+    from PIL import Image
+
+    path = tmp_path / "mug.png"
+    _render(mug, path, views=("iso", "front"), size=(400, 300), show_requested=True)
+    image = Image.open(io.BytesIO(path.read_bytes())).convert("RGB")
+    assert image.size == (2 * 400, 300 + HEADER)
+    pixels = np.asarray(image)[HEADER:].reshape(-1, 3).astype(int)
+    background = np.abs(pixels - [250, 250, 248]).sum(axis=1) > 12
+    assert background.mean() > 0.1  # the scene covers a real share of the picture
+    orange = (pixels[:, 0] > 150) & (pixels[:, 1] > 60) & (pixels[:, 1] < 170) & (pixels[:, 2] < 80)
+    assert orange.mean() > 0.01  # the target (the mug, orange) is visible
+    assert len(np.unique(pixels, axis=0)) > 100  # shaded, not flat fills
+
+
+# ---------------------------------------------------------------- the browser viewer
+
+CHROMIUM_FLAGS = [
+    "--headless",
+    "--no-sandbox",
+    "--disable-gpu",
+    "--enable-unsafe-swiftshader",  # WebGL on the CPU
+    "--disable-quic",
+    "--no-first-run",
+    "--disable-background-networking",
+    "--disable-component-update",
+    "--disable-sync",
+    "--virtual-time-budget=8000",
+    "--window-size=1000,700",
+]
+
+
+@pytest.fixture(scope="session")
+def chromium() -> str:
+    """Debian's Chromium, installed here if missing (CI machines start without it)."""
+    found = shutil.which("chromium")
+    if found:
+        return found
+    apt = shutil.which("apt-get")
+    if apt is None or os.geteuid() != 0:
+        pytest.skip("Chromium is not installed and cannot be: needs apt-get as root")
+    for command in (
+        [apt, "install", "-y", "-q", "chromium"],
+        [apt, "update", "-q"],
+        [apt, "install", "-y", "-q", "chromium"],
+    ):
+        subprocess.run(command, capture_output=True, timeout=900, check=False)
+        if shutil.which("chromium"):
+            return str(shutil.which("chromium"))
+    pytest.skip("Chromium could not be installed from the system packages (apt-get install chromium failed)")
+
+
+def test_html_viewer_renders_the_scene_in_headless_chromium(mug: Any, tmp_path: Path, chromium: str) -> None:
+    path = tmp_path / "mug.html"
+    _render(mug, path, show_requested=True)
+    page = path.read_text()
+    assert "http://" not in page and "https://" not in page  # nothing to fetch: works offline
+    run = subprocess.run(
+        [chromium, *CHROMIUM_FLAGS, f"--user-data-dir={tmp_path / 'profile'}", "--dump-dom", path.as_uri()],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    body = re.search(r"<body([^>]*)>", run.stdout)
+    assert body is not None, run.stderr[-2000:]
+    attributes = dict(re.findall(r'data-(\w+)="([^"]*)"', body.group(1)))
+    assert attributes.get("errors") == "", attributes  # no exceptions, no console errors
+    # the canvas (1000 - 340 px panel) x 700: the scene covers more than 5 % of it
+    assert int(attributes.get("rendered", "0")) > 0.05 * 660 * 700
+    assert "mug.hook -- s3.hook2" in run.stdout  # the panel's connection tree
+
+
+# ---------------------------------------------------------------- the commands
+
+
+def test_render_command_writes_the_file_and_says_so(tmp_path: Path) -> None:
+    out = tmp_path / "demo.png"
+    run = fabhal("render", "programs/demo.fhl", "-o", str(out), "--size", "300x200")
+    assert run.returncode == 0, run.stderr
+    assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert f"wrote {out} (solved)" in run.stderr
+
+
+def test_solve_with_render_reports_and_draws(tmp_path: Path) -> None:
+    out = tmp_path / "mug.glb"
+    run = fabhal("solve", "programs/mug_hanger.fhl", "--render", str(out))
+    assert run.returncode == 0, run.stderr
+    assert "how it hangs" in run.stdout and out.stat().st_size > 10_000
+
+
+def test_render_refuses_an_unknown_format_before_solving(tmp_path: Path) -> None:
+    run = fabhal("render", "programs/demo.fhl", "-o", str(tmp_path / "demo.jpg"))
+    assert run.returncode == 2
+    assert "the suffix picks the format, one of .glb .obj .stl .png .html" in run.stderr
+    assert not (tmp_path / "demo.jpg").exists()
+
+
+def test_render_of_a_program_with_errors_draws_nothing(tmp_path: Path) -> None:
+    program = tmp_path / "broken.fhl"
+    program.write_text(
+        "environment rod = Rod(length: 500, radius: 3) at (0, 0, 0)\nmug = Mug()\nconnect mug.hook -- rodd\n"
+    )
+    run = fabhal("render", str(program), "-o", str(tmp_path / "out.png"))
+    assert run.returncode == 1
+    assert "nothing to draw" in run.stderr and "rodd" in run.stderr
+    assert not (tmp_path / "out.png").exists()
