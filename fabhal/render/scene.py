@@ -10,6 +10,7 @@ import numpy as np
 
 from fabhal.kinematics.frames import Array, invert
 from fabhal.meshes import part_mesh, primitive_mesh
+from fabhal.report.solution import hanging_lines
 
 if TYPE_CHECKING:
     from fabhal.solve import Solution
@@ -62,6 +63,7 @@ class Scene:
     status: str
     requested: Array  # (4, 4) world frame the target should reach
     achieved: Array  # (4, 4) where it is
+    tree: tuple[tuple[int, str], ...]  # how it hangs: (depth, line), see report.solution.hanging_lines
 
 
 def build_scene(solution: Solution, title: str, options: RenderOptions) -> Scene:
@@ -86,7 +88,14 @@ def build_scene(solution: Solution, title: str, options: RenderOptions) -> Scene
         items.append(_item(name, "requested", ghost, requested_part, TARGET_COLOR, GHOST_OPACITY))
         for fall in solution.falls:
             items.append(_failure_marker(solution, fall.joint, fall.part))
-    return Scene(tuple(items), title, solution.status, solution.goal.requested, solution.target_frame())
+    return Scene(
+        tuple(items),
+        title,
+        solution.status,
+        solution.goal.requested,
+        solution.target_frame(),
+        tuple(hanging_lines(model)),
+    )
 
 
 def _item(

@@ -270,6 +270,16 @@
     for (const diagnostic of summary.diagnostics || []) {
       add("p", `${diagnostic.severity}[${diagnostic.code}]: ${diagnostic.message}`, diagnostic.severity === "error" ? "falls_apart" : "");
     }
+    add("h2", "how it hangs").style.fontSize = "15px";
+    const tree = add("div");
+    for (const entry of data.tree) {
+      const line = document.createElement("div");
+      line.style.paddingLeft = `${entry.depth * 14}px`;
+      const code = document.createElement("code");
+      code.textContent = entry.line;
+      line.appendChild(code);
+      tree.appendChild(line);
+    }
     add("h2", "connections").style.fontSize = "15px";
     const list = add("ul");
     for (const connection of summary.connections || []) {

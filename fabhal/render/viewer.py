@@ -38,6 +38,7 @@ def viewer_html(scene: Scene, summary: dict[str, Any]) -> str:
         "items": items,
         "requested": np.round(scene.requested, 6).tolist(),
         "achieved": np.round(scene.achieved, 6).tolist(),
+        "tree": [{"depth": depth, "line": line} for depth, line in scene.tree],
         "summary": summary,
     }
     script = resources.files("fabhal.render").joinpath("viewer.js").read_text(encoding="utf-8")

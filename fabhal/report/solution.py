@@ -9,6 +9,7 @@ import numpy as np
 
 from fabhal.diagnostics import Diagnostic, to_json
 from fabhal.kinematics.frames import matrix_euler
+from fabhal.model import Model
 from fabhal.solve import Solution
 
 if TYPE_CHECKING:
@@ -144,18 +145,37 @@ def renderables(result: SolveOutcome, program: str) -> list[RenderableType]:
         mass = "fixed" if part.environment else f"{solution.masses[i]:.1f} g"
         table.add_row(part.name, part.type_name, _triple(frame["pos"]), _triple(frame["rot"]), mass)
     chain = Text("how it hangs (each line: a part and what holds it)\n", style="bold")
-    for edge in solution.model.tree:
-        joint = solution.model.joints[edge.joint]
-        up, down = (
-            (joint.connection.a, joint.connection.b)
-            if edge.parent_side == "a"
-            else (joint.connection.b, joint.connection.a)
-        )
-        chain.append(f"  {down}  <-  {up}\n")
-    for j in solution.model.closures:
-        connection = solution.model.joints[j].connection
-        chain.append(f"  {connection.a}  ==  {connection.b}  (closes a loop)\n")
+    for depth, line in hanging_lines(solution.model):
+        chain.append("  " * (depth + 1) + line + "\n")
     return [head, table, chain]
+
+
+def hanging_lines(model: Model) -> list[tuple[int, str]]:
+    """The connection tree depth first, as (depth, text) lines: each part under
+    what holds it; then the connections that close loops (depth 0)."""
+    below: dict[int, list[tuple[int, str]]] = {}  # part -> (child part, line), in program order
+    for edge in model.tree:
+        joint = model.joints[edge.joint]
+        (up, down), (parent, child) = (
+            ((joint.connection.a, joint.connection.b), (joint.a.part, joint.b.part))
+            if edge.parent_side == "a"
+            else ((joint.connection.b, joint.connection.a), (joint.b.part, joint.a.part))
+        )
+        below.setdefault(parent, []).append((child, f"{down}  <-  {up}"))
+    lines: list[tuple[int, str]] = []
+
+    def visit(part: int, depth: int) -> None:
+        for child, line in below.get(part, []):
+            lines.append((depth, line))
+            visit(child, depth + 1)
+
+    for i, part in enumerate(model.parts):
+        if part.environment:
+            visit(i, 0)
+    for j in model.closures:
+        connection = model.joints[j].connection
+        lines.append((0, f"{connection.a}  ==  {connection.b}  (closes a loop)"))
+    return lines
 
 
 def _triple(values: list[float]) -> str:

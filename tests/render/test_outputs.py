@@ -137,7 +137,8 @@ def test_html_viewer_renders_the_scene_in_headless_chromium(mug: Any, tmp_path: 
     assert attributes.get("errors") == "", attributes  # no exceptions, no console errors
     # the canvas (1000 - 340 px panel) x 700: the scene covers more than 5 % of it
     assert int(attributes.get("rendered", "0")) > 0.05 * 660 * 700
-    assert "mug.hook -- s3.hook2" in run.stdout  # the panel's connection tree
+    assert "mug.hook -- s3.hook2" in run.stdout  # the panel's connections...
+    assert "mug.hook  &lt;-  s3.hook2" in run.stdout  # ...and the tree of what holds what
 
 
 # ---------------------------------------------------------------- the commands
