@@ -105,6 +105,22 @@ solved (a falling design is still drawn), 2 a file could not be read or written.
 """
 
 
+BENCH_EPILOG = """\
+examples:
+  fabhal bench                          every program in programs/, 5 runs each
+  fabhal bench -n 1 --no-process        a quick look: one run, no separate processes
+  fabhal bench programs/mug_hanger.fhl  one program
+  python bench/run.py                   the same from a checkout
+
+Per program: parse, check and solve times (median over the runs in one
+process; the first run includes importing the solver), the wall time of one
+whole `fabhal solve` process, and whether the targets are met: a process under
+1 s, the solve step under 200 ms (500 ms for programs with loops). The four
+clip-light programs also run back to back as one row. Writes bench/results.json
+when run from a checkout (or -o FILE). See bench/README.md.
+"""
+
+
 class _Parser(argparse.ArgumentParser):
     def error(self, message: str) -> NoReturn:
         self.print_usage(sys.stderr)
@@ -259,6 +275,24 @@ def build_parser() -> argparse.ArgumentParser:
     _add_solver_options(render)
     render.set_defaults(run=run_render)
 
+    bench = commands.add_parser(
+        "bench",
+        help="time parsing, checking and solving of the gallery programs",
+        description="Benchmark the gallery: per program the parse, check and solve times and one "
+        "whole `fabhal solve` process, against the speed targets.",
+        epilog=BENCH_EPILOG,
+        formatter_class=formatter,
+    )
+    bench.add_argument(
+        "files", nargs="*", type=Path, metavar="FILE", help="programs (default: programs/*.fhl)"
+    )
+    bench.add_argument(
+        "-n", "--runs", type=int, default=5, help="runs per program in one process (default 5)"
+    )
+    bench.add_argument("-o", "--output", type=Path, metavar="FILE.json", help="where to write the results")
+    bench.add_argument("--no-process", action="store_true", help="skip the whole-process timings")
+    bench.set_defaults(run=run_bench)
+
     parts = commands.add_parser(
         "parts",
         help="list the part library, or show one part",
@@ -388,6 +422,28 @@ def _render(result: Any, output: Path, args: argparse.Namespace, summary: dict[s
         return EXIT_USAGE
     print(f"wrote {output} ({result.status.replace('_', ' ')})", file=sys.stderr)
     return None
+
+
+def run_bench(args: argparse.Namespace) -> int:
+    from fabhal import bench, resources
+
+    checkout = resources.stdlib_dir().parent
+    programs = list(args.files) or sorted((checkout / "programs").glob("*.fhl"))
+    if not programs:
+        print("fabhal: no programs to benchmark (pass .fhl files)", file=sys.stderr)
+        return EXIT_USAGE
+    missing = [p for p in programs if not p.is_file()]
+    if missing:
+        print(f"fabhal: cannot read {missing[0]}: no such file", file=sys.stderr)
+        return EXIT_USAGE
+    if args.runs < 1:
+        print("fabhal: --runs must be at least 1", file=sys.stderr)
+        return EXIT_USAGE
+    output = args.output
+    if output is None and (checkout / "bench").is_dir():
+        output = checkout / "bench" / "results.json"
+    bench.run(programs, args.runs, output, whole_process=not args.no_process)
+    return EXIT_OK
 
 
 def run_parts(args: argparse.Namespace) -> int:

@@ -16,7 +16,7 @@ from fabhal import resources
 from fabhal.diagnostics import Diagnostic, FabhalError, error
 from fabhal.source import SourceFile
 from fabhal.syntax import ast
-from fabhal.syntax.parser import parse_source
+from fabhal.syntax.parser import parse_source, parse_source_cached
 
 
 class InputError(FabhalError):
@@ -82,7 +82,8 @@ class _Loader:
         self.sources[source.name] = source
         self.paths[source.name] = path
         try:
-            module = parse_source(source)
+            in_library = path.parent == resources.stdlib_dir().resolve()
+            module = parse_source_cached(source) if in_library else parse_source(source)
         except FabhalError as exc:
             self.diagnostics.extend(exc.diagnostics)
             return None

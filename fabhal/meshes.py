@@ -7,6 +7,7 @@ Meshes load lazily (trimesh is imported only here) and are cached per file.
 
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
@@ -154,8 +155,7 @@ def part_mesh(spec: PartSpec) -> trimesh.Trimesh:
 
 
 def mass_properties(spec: PartSpec) -> MassProperties:
-    mesh = part_mesh(spec)
-    volume, centroid = volume_and_centroid(np.asarray(mesh.vertices), np.asarray(mesh.faces))
+    volume, centroid, (low, high) = _mesh_measures(spec)
     if spec.mass_override is not None:
         mass, source = spec.mass_override, "mass line"
     elif spec.density is not None:
@@ -163,7 +163,6 @@ def mass_properties(spec: PartSpec) -> MassProperties:
         source = "mesh" if spec.mesh is not None else "primitives"
     else:
         mass, source = None, "mesh" if spec.mesh is not None else "primitives"
-    low, high = (tuple(float(c) for c in corner) for corner in mesh.bounds)
     return MassProperties(
         mass,
         (float(centroid[0]), float(centroid[1]), float(centroid[2])),
@@ -171,3 +170,40 @@ def mass_properties(spec: PartSpec) -> MassProperties:
         volume,
         source,
     )
+
+
+Measures = tuple[float, tuple[float, float, float], tuple[tuple[float, ...], tuple[float, ...]]]
+
+
+def _mesh_measures(spec: PartSpec) -> Measures:
+    """Volume (mm3), centroid and bounds of the part's mesh. Kept on disk in the
+    user cache dir, keyed by the mesh file's bytes (or the primitives it is built
+    from) and this module's code: solving then needs no mesh loaded, and not
+    even trimesh imported (~1.5 s on a cold start)."""
+    import hashlib
+    import json
+
+    from fabhal import resources
+
+    digest = hashlib.sha256(Path(__file__).read_bytes())
+    digest.update(spec.mesh.read_bytes() if spec.mesh is not None else repr(spec.primitives).encode())
+    directory = resources.cache_dir()
+    path = directory / f"mesh-{digest.hexdigest()[:24]}.json" if directory is not None else None
+    if path is not None and path.is_file():
+        try:
+            volume, centroid, low, high = json.loads(path.read_text())
+            return float(volume), tuple(centroid), (tuple(low), tuple(high))  # type: ignore[return-value]
+        except (ValueError, TypeError, OSError):
+            pass  # damaged: measure again
+    mesh = part_mesh(spec)
+    volume, centroid = volume_and_centroid(np.asarray(mesh.vertices), np.asarray(mesh.faces))
+    low, high = ([float(c) for c in corner] for corner in mesh.bounds)
+    measures = (float(volume), tuple(float(c) for c in centroid), (tuple(low), tuple(high)))
+    if path is not None:
+        try:
+            temporary = path.with_suffix(f".{os.getpid()}.tmp")
+            temporary.write_text(json.dumps([measures[0], list(measures[1]), low, high]))
+            temporary.replace(path)
+        except OSError:
+            pass
+    return measures  # type: ignore[return-value]

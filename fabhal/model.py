@@ -101,7 +101,27 @@ class Model:
 
     def forward(self, x: Array, with_twists: bool = False) -> Forward:
         """Part frames and, if asked, each DoF's world twist: d(frame)/dx_i =
-        twists[i] @ frame for the parts DoF i moves (`moves[i]`)."""
+        twists[i] @ frame for the parts DoF i moves (`moves[i]`).
+
+        The last result is kept: optimisers ask for the value, the gradient and
+        the constraints at one point in separate calls."""
+        key = x.tobytes()
+        last = self._last_forward.get(key)
+        if last is not None and (last.twists is not None or not with_twists):
+            return last
+        result = self._forward(x, with_twists)
+        for array in (result.frames, result.local, result.twists, result.own_twists):
+            if array is not None:
+                array.setflags(write=False)  # shared with later callers at the same x
+        self._last_forward.clear()
+        self._last_forward[key] = result
+        return result
+
+    @cached_property
+    def _last_forward(self) -> dict[bytes, Forward]:
+        return {}
+
+    def _forward(self, x: Array, with_twists: bool) -> Forward:
         layout = self.layout
         local = layout.local_frames(x)
         frames = layout.environment_frames.copy()
@@ -114,19 +134,22 @@ class Model:
                 @ inverse_local[level.child_side]
             )
         if not with_twists:
-            return Forward(frames, None, None)
+            return Forward(frames, local, None, None)
         # the twist of a DoF turns its side's part about that side's connector:
         # W dL inv(W L); a parent-side DoF moves the child with it, a child-side
         # DoF moves the child against its own connector (the minus sign)
         on_part = frames[layout.dof_part]
         own = on_part @ layout.local_derivatives(x) @ invert(on_part @ local[layout.dof_side])
-        return Forward(frames, layout.tree_sign[:, None, None] * own, own)
+        return Forward(frames, local, layout.tree_sign[:, None, None] * own, own)
 
     def closure_errors(self, x: Array, frames: Array | None = None) -> Array:
         """(n_closures, 4, 4): inv(world(a) @ offset) @ world(b), the identity when a loop closes."""
         if frames is None:
-            frames = self.part_frames(x)
-        world_a, world_b = self.layout.closure_worlds(x, frames)
+            fwd = self.forward(x)
+            local, frames = fwd.local, fwd.frames
+        else:
+            local = self.layout.local_frames(x)
+        world_a, world_b = self.layout.closure_worlds(local, frames)
         return invert(world_a) @ world_b
 
     def closure_residuals(self, x: Array, frames: Array | None = None) -> Array:
@@ -142,7 +165,7 @@ class Model:
         layout = self.layout
         fwd = self.forward(x, with_twists=True)
         assert fwd.own_twists is not None
-        world_a, world_b = layout.closure_worlds(x, fwd.frames)
+        world_a, world_b = layout.closure_worlds(fwd.local, fwd.frames)
         # d error = c * inv(world a) @ twist @ world b, c = how the DoF moves b relative to a
         d_errors = np.einsum(
             "ki,kab,ibc,kcd->kiad", layout.closure_coefficients, invert(world_a), fwd.own_twists, world_b
@@ -174,6 +197,7 @@ class Model:
 @dataclass(frozen=True)
 class Forward:
     frames: Array  # (n_parts, 4, 4)
+    local: Array  # (n_sides, 4, 4) every connector in its part
     twists: Array | None  # (n_dofs, 4, 4) world twist of each tree DoF (zero for the others)
     own_twists: Array | None  # (n_dofs, 4, 4) each DoF's twist of its own side's connector
 
@@ -242,10 +266,10 @@ class ChainLayout:
             out[group.dofs.ravel()] = derivative.reshape(n * k, 4, 4)
         return out
 
-    def closure_worlds(self, x: Array, frames: Array) -> tuple[Array, Array]:
-        """(k, 4, 4) world frames of each loop's a connector (with the offset) and b connector."""
+    def closure_worlds(self, local: Array, frames: Array) -> tuple[Array, Array]:
+        """(k, 4, 4) world frames of each loop's a connector (with the offset) and b connector,
+        from every side's connector in its part (`local_frames`) and the part frames."""
         a_side, a_part, b_side, b_part = self.closure_sides
-        local = self.local_frames(x)
         return frames[a_part] @ local[a_side] @ self.closure_offsets, frames[b_part] @ local[b_side]
 
 

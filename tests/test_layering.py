@@ -29,6 +29,7 @@ ORDER = [
     "report",
     "render",
     "api",
+    "bench",
     "cli",
 ]
 

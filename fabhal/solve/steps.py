@@ -28,6 +28,8 @@ from fabhal.solve.spacing import Spacing, spacing_jacobian, spacing_values
 GRAVITY = 9.81  # m/s2
 CLOSED_MM = 1e-6
 FIT_EVALUATIONS = 200  # per start of step 1 without loops
+# a start whose target residual (mm, and degrees counted as mm) is this close needs no other start
+GOOD_FIT = 0.5
 
 # rows (per loop) of the 12 closure residuals kept as the 6 constraint equations:
 # position (3) and vee((R - R^T) / 2) from the 9 rotation entries
@@ -113,7 +115,8 @@ def fit_target(problem: Problem, goal: target_mod.TargetGoal, starts: list[Array
     model = problem.model
 
     def residual(v: Array) -> Array:
-        frames = model.part_frames(problem.full(v))
+        # with the twists: the Jacobian is asked for at the same point next, and reuses them
+        frames = model.forward(problem.full(v), with_twists=True).frames
         return target_mod.residual(goal, target_mod.achieved(goal, frames))
 
     def jacobian(v: Array) -> Array:
@@ -149,8 +152,8 @@ def fit_target(problem: Problem, goal: target_mod.TargetGoal, starts: list[Array
         cost = float(residual(v) @ residual(v))
         if cost < best_cost and _feasible(problem, v):
             best_v, best_cost = v, cost
-        if best_cost < 1e-10:
-            break
+        if best_cost < GOOD_FIT**2:
+            break  # the other starts are there for when this one is stuck far away
     return best_v, False
 
 

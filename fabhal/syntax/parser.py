@@ -6,9 +6,11 @@ from `grammar/fabhal.lark` and cached on disk in the user's cache directory.
 
 from __future__ import annotations
 
+import os
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 from functools import cache
+from pathlib import Path
 
 from lark import Lark, Token
 from lark.exceptions import UnexpectedInput
@@ -128,6 +130,47 @@ def parse_source(source: SourceFile) -> ast.Module:
             break
         return ToAst(source.name).transform(tree)
     raise FabhalError(diagnostics)
+
+
+def parse_source_cached(source: SourceFile) -> ast.Module:
+    """`parse_source` for files that rarely change (the part library): the AST
+    is kept on disk in the user cache dir, keyed by the file's name and text,
+    the grammar and the code that builds the AST, so any change re-parses.
+    Saves ~0.3 s per run (the library is 8 files of ~2000 lines)."""
+    import hashlib
+    import pickle
+
+    directory = resources.cache_dir()
+    if directory is None:
+        return parse_source(source)
+    digest = hashlib.sha256(_syntax_fingerprint().encode())
+    digest.update(source.name.encode() + b"\0" + source.text.encode())
+    path = directory / f"ast-{digest.hexdigest()[:24]}.pickle"
+    try:
+        cached = pickle.loads(path.read_bytes())
+        if isinstance(cached, ast.Module):
+            return cached
+    except (OSError, pickle.UnpicklingError, EOFError, AttributeError, ImportError, TypeError):
+        pass  # absent, or written by other code: parse again
+    module = parse_source(source)  # syntax errors raise and are never cached
+    try:
+        temporary = path.with_suffix(f".{os.getpid()}.tmp")
+        temporary.write_bytes(pickle.dumps(module, protocol=pickle.HIGHEST_PROTOCOL))
+        temporary.replace(path)  # atomic: a concurrent run never reads half a file
+    except OSError:
+        pass
+    return module
+
+
+@cache
+def _syntax_fingerprint() -> str:
+    import hashlib
+
+    digest = hashlib.sha256(_grammar_fingerprint().encode())
+    package = Path(__file__).parent
+    for module in [*sorted(package.glob("*.py")), package.parent / "source.py"]:  # the AST and its spans
+        digest.update(module.read_bytes())
+    return digest.hexdigest()
 
 
 def parse_text(text: str, name: str = "<string>") -> ast.Module:

@@ -1,0 +1,174 @@
+"""The benchmark: how long each gallery program takes to parse, check and solve.
+
+For every program: the median over N runs in one process of each stage's time
+(as `fabhal.api.solve` measures it: parse = reading and parsing the program
+and the part library, check = elaboration and every rule, solve = the
+solver), plus the wall time of one whole `fabhal solve` process. The four
+clip-light programs solved back to back form one extra row. Targets (issue 8):
+a whole process under 1 s; the solve step under 200 ms without loops and
+under 500 ms with them. Run `python bench/run.py` or `fabhal bench`; results
+go to bench/results.json. See bench/README.md.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import platform
+import statistics
+import subprocess
+import sys
+import time
+from collections.abc import Sequence
+from dataclasses import asdict, dataclass
+from pathlib import Path
+
+from fabhal import api
+
+PROCESS_TARGET_S = 1.0
+SOLVE_TARGET_S = 0.2  # without loops
+SOLVE_WITH_LOOPS_TARGET_S = 0.5
+FAMILY = ("clip_light_xs", "clip_light_s", "clip_light_m", "clip_light_l")
+
+
+@dataclass(frozen=True)
+class Row:
+    program: str
+    loops: int
+    status: str
+    parse_s: float  # medians over the runs
+    check_s: float
+    solve_s: float
+    process_s: float | None  # one whole `fabhal solve` process, wall time
+    solve_target_s: float
+
+    @property
+    def meets_targets(self) -> bool:
+        within_process = self.process_s is None or self.process_s < PROCESS_TARGET_S
+        return within_process and self.solve_s < self.solve_target_s
+
+
+def bench_program(path: Path, runs: int, whole_process: bool = True) -> Row:
+    results = [api.solve(path) for _ in range(max(runs, 1))]
+    timings = [r.timing for r in results]
+    model = results[-1].check.model
+    loops = len(model.closures) if model is not None else 0
+    return Row(
+        path.stem,
+        loops,
+        results[-1].status,
+        statistics.median(t["parse_s"] for t in timings),
+        statistics.median(t["check_s"] for t in timings),
+        statistics.median(t["solve_s"] for t in timings),
+        process_wall_time(path) if whole_process else None,
+        SOLVE_WITH_LOOPS_TARGET_S if loops else SOLVE_TARGET_S,
+    )
+
+
+def process_wall_time(path: Path) -> float:
+    """Wall time of `fabhal solve --json PATH` in a fresh Python process."""
+    started = time.perf_counter()
+    subprocess.run(
+        [sys.executable, "-m", "fabhal", "solve", "--json", str(path)],
+        capture_output=True,
+        check=False,
+        env={**os.environ, "PYTHONDONTWRITEBYTECODE": "1"},
+    )
+    return time.perf_counter() - started
+
+
+def bench_family(directory: Path, runs: int) -> Row:
+    """The four clip-light programs solved back to back in one process: a preview
+    of searching a family of designs (each member re-parsed and re-checked)."""
+    paths = [directory / f"{name}.fhl" for name in FAMILY]
+    totals = []
+    for _ in range(runs):
+        timings = [api.solve(p).timing for p in paths]
+        totals.append({k: sum(t[k] for t in timings) for k in ("parse_s", "check_s", "solve_s")})
+    return Row(
+        "clip_light_* (4, back to back)",
+        0,
+        "-",
+        statistics.median(t["parse_s"] for t in totals),
+        statistics.median(t["check_s"] for t in totals),
+        statistics.median(t["solve_s"] for t in totals),
+        None,
+        4 * SOLVE_TARGET_S,
+    )
+
+
+def run(programs: Sequence[Path], runs: int, output: Path | None, whole_process: bool = True) -> list[Row]:
+    from rich.console import Console
+    from rich.progress import Progress
+
+    console = Console(stderr=True)
+    rows: list[Row] = []
+    with Progress(console=console, transient=True) as progress:
+        task = progress.add_task("benchmarking", total=len(programs) + 1)
+        for path in programs:
+            progress.update(task, description=f"benchmarking {path.stem}")
+            rows.append(bench_program(path, runs, whole_process))
+            progress.advance(task)
+        family = [p for p in programs if p.stem in FAMILY]
+        if len(family) == len(FAMILY):
+            progress.update(task, description="benchmarking the clip-light family")
+            rows.append(bench_family(family[0].parent, runs))
+        progress.advance(task)
+    Console(width=max(Console().width, 120)).print(table(rows, runs))
+    if output is not None:
+        output.write_text(json.dumps(results_json(rows, runs), indent=2) + "\n")
+        console.print(f"wrote {output}")
+    return rows
+
+
+def table(rows: Sequence[Row], runs: int) -> object:
+    from rich.table import Table
+
+    out = Table(
+        title=f"median of {runs} runs in one process; process: one whole `fabhal solve`, target < 1000 ms"
+    )
+    for column in (
+        "program",
+        "loops",
+        "status",
+        "parse ms",
+        "check ms",
+        "solve ms",
+        "target",
+        "process ms",
+        "targets",
+    ):
+        out.add_column(column, justify="left" if column in ("program", "status") else "right")
+    for row in rows:
+        process = f"{row.process_s * 1000:.0f}" if row.process_s is not None else "-"
+        verdict = "[green]met[/green]" if row.meets_targets else "[red]missed[/red]"
+        out.add_row(
+            row.program,
+            str(row.loops),
+            row.status,
+            f"{row.parse_s * 1000:.0f}",
+            f"{row.check_s * 1000:.0f}",
+            f"{row.solve_s * 1000:.0f}",
+            f"< {row.solve_target_s * 1000:.0f}",
+            process,
+            verdict,
+        )
+    return out
+
+
+def results_json(rows: Sequence[Row], runs: int) -> dict[str, object]:
+    return {
+        "date": time.strftime("%Y-%m-%d %H:%M:%S"),
+        "machine": {
+            "cpus": os.cpu_count(),
+            "python": platform.python_version(),
+            "platform": platform.platform(),
+        },
+        "runs": runs,
+        "targets_s": {
+            "process": PROCESS_TARGET_S,
+            "solve_without_loops": SOLVE_TARGET_S,
+            "solve_with_loops": SOLVE_WITH_LOOPS_TARGET_S,
+        },
+        "rows": [{**asdict(row), "meets_targets": row.meets_targets} for row in rows],
+    }
