@@ -391,6 +391,9 @@ def run_render(args: argparse.Namespace) -> int:
     return EXIT_OK if result.status == "solved" else EXIT_DIAGNOSTICS
 
 
+_NOT_SOLVED = {"error": "the program has errors", "infeasible": "a loop of the design cannot close"}
+
+
 def _unknown_format(output: Path | None) -> bool:
     """Say so (before any solving) if `output`'s suffix is not a format `render` writes."""
     from fabhal.render import FORMATS
@@ -410,7 +413,7 @@ def _render(result: Any, output: Path, args: argparse.Namespace, summary: dict[s
 
     if result.solution is None:
         print(
-            f"fabhal: nothing to draw: the program {result.status.replace('_', ' ')} (see above)",
+            f"fabhal: nothing to draw: {_NOT_SOLVED[result.status]} (see above)",
             file=sys.stderr,
         )
         return EXIT_DIAGNOSTICS
