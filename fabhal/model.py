@@ -72,7 +72,7 @@ class Model:
     closures: tuple[int, ...]  # joints off the tree
     variables: tuple[DofVariable, ...]
     unplaced: tuple[int, ...]  # parts no environment reaches
-    pinned: frozenset[int]  # DoFs that never move: a small surface resting on a larger one sits at its centre
+    pinned: frozenset[int]  # DoFs that never move: an object resting on a surface stands at its centre
 
     # ---- the DoF vector
 
@@ -426,14 +426,17 @@ def _holds_by_itself(first: str, second: str) -> bool:
 
 
 def _resting_surface(joint: Joint) -> tuple[int, ...]:
-    """Where a surface rests on a larger one, the smaller's DoFs: its centre sits on
-    the larger's connector point (the larger's own DoFs place it), so they stay
-    at their defaults; moving them too would only say the same thing twice."""
+    """Where a surface rests on another, the DoFs that place it there: an object
+    stands in the middle of what it rests on (the reference does the same), so
+    the smaller's t1, t2 and s and the larger's t1, t2 stay at their defaults;
+    only the larger's spin s turns it. The solver does not slide a bottle across
+    its basket's floor to chase the target: the floor is not a designed joint."""
     a, b = joint.a.primitive, joint.b.primitive
     if a.kind != "surface" or b.kind != "surface":
         return ()
     area = [p.params["width"] * p.params["length"] for p in (a, b)]
-    return joint.a.dof_indices if area[0] <= area[1] else joint.b.dof_indices
+    smaller, larger = (joint.a, joint.b) if area[0] <= area[1] else (joint.b, joint.a)
+    return smaller.dof_indices + larger.dof_indices[:2]
 
 
 def _spanning_tree(

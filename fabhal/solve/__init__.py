@@ -21,7 +21,7 @@ from fabhal.meshes import mass_properties
 from fabhal.model import Joint, Model
 from fabhal.solve import target as target_mod
 from fabhal.solve.spacing import spacing_constraints, spread
-from fabhal.solve.steps import Problem, closure_residual_mm, fit_target, potential, settle
+from fabhal.solve.steps import Problem, closure_residual_mm, fit_target, mm_per_unit, potential, settle
 
 EXTRA_STARTS = 3  # seeded random starts for step 1, besides the spread-out defaults
 # step 2 settles again from this many nudged copies of its result: a gradient method
@@ -187,20 +187,6 @@ def _mass_table(model: Model) -> tuple[Array, Array]:
     return masses, centres
 
 
-def _mm_per_unit(model: Model) -> Array:
-    """How far a connection point moves per unit of each DoF: a fraction t moves
-    along the primitive's length (or width, height); an angle moves about 1 mm
-    per degree at the radii of everyday hooks and rings (50 to 60 mm)."""
-    scales = np.ones(len(model.variables))
-    for i, variable in enumerate(model.variables):
-        if not variable.dof.periodic and variable.dof.high <= 1.0:
-            joint = model.joints[variable.joint]
-            primitive = (joint.a if variable.side == "a" else joint.b).primitive
-            lengths = [primitive.params.get(k, 0.0) for k in ("length", "height", "width")]
-            scales[i] = max(max(lengths), 1.0)
-    return scales
-
-
 def _verify(
     problem: Problem, energy: Callable[[Array], tuple[float, Array]], x: Array, masses: Array
 ) -> tuple[float, tuple[int, ...], tuple[Fall, ...]]:
@@ -210,7 +196,7 @@ def _verify(
     model = problem.model
     free = problem.free
     weight = max(float(masses.sum()) / 1000.0 * 9.81 / 1000.0, 1e-12)  # joules per mm of height
-    per_mm = _mm_per_unit(model)[free]
+    per_mm = mm_per_unit(model)[free]
     gradient = energy(x)[1][free] / per_mm / weight
     low, high = model.bounds()
     span = np.where(np.isfinite(high - low), high - low, 1.0)
