@@ -34,8 +34,8 @@ def test_non_editable_install_works_outside_the_checkout(tmp_path: Path) -> None
 
     elsewhere = tmp_path / "work"
     elsewhere.mkdir()
-    program = elsewhere / "mug.fhl"
-    program.write_text((REPO / "programs" / "mug_hanger.fhl").read_text())
+    program = elsewhere / "demo.fhl"
+    program.write_text((REPO / "programs" / "demo.fhl").read_text())
     where = subprocess.run(
         [str(python), "-c", "import fabhal.resources as r; print(r.grammar_path()); print(r.stdlib_dir())"],
         cwd=elsewhere,
@@ -44,7 +44,7 @@ def test_non_editable_install_works_outside_the_checkout(tmp_path: Path) -> None
     )
     assert str(env_dir) in where.stdout, where.stdout + where.stderr
     run = subprocess.run(
-        [str(env_dir / "bin" / "fabhal"), "check", "mug.fhl"], cwd=elsewhere, capture_output=True, text=True
+        [str(env_dir / "bin" / "fabhal"), "check", "demo.fhl"], cwd=elsewhere, capture_output=True, text=True
     )
     assert run.returncode == 0, run.stdout + run.stderr
-    assert "mug.fhl: ok" in run.stdout
+    assert "demo.fhl: ok" in run.stdout

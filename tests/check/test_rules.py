@@ -3,6 +3,7 @@ rendered diagnostic (golden files, refreshed with FABHAL_UPDATE_GOLDEN=1)."""
 
 from __future__ import annotations
 
+import shutil
 from pathlib import Path
 
 import pytest
@@ -68,8 +69,9 @@ def test_loops_close_to_a_micron_when_the_check_passes() -> None:
 
 def test_order_of_a_connection_does_not_matter(tmp_path: Path) -> None:
     text = (REPO / "programs" / "bird_feeder.fhl").read_text()
-    swapped = text.replace("connect hanger.hook3 -- s2.hook2", "connect s2.hook2 -- hanger.hook3")
+    swapped = text.replace("connect hanger.hook3 -- right.hook", "connect right.hook -- hanger.hook3")
     assert swapped != text
+    shutil.copytree(REPO / "programs" / "lib", tmp_path / "lib")  # what it imports
     program = tmp_path / "swapped.fhl"
     program.write_text(swapped)
     assert api.check(program).ok

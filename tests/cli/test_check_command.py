@@ -85,7 +85,7 @@ def test_imports_resolve_relative_to_the_importing_file(tmp_path: Path) -> None:
     (tmp_path / "lib").mkdir()
     (tmp_path / "lib" / "chain.fhl").write_text('import "../p.fhl"\n')  # a cycle is fine
     program = tmp_path / "p.fhl"
-    program.write_text('import "lib/chain.fhl"\n' + (REPO / "programs" / "mug_hanger.fhl").read_text())
+    program.write_text('import "lib/chain.fhl"\n' + (REPO / "programs" / "demo.fhl").read_text())
     run = fabhal("check", str(program))
     assert run.returncode == 0, run.stderr
 

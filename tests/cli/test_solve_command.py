@@ -34,12 +34,12 @@ def test_json_result_of_a_gallery_program(tmp_path: Path) -> None:
     assert (target["part"], target["primitive"]) == ("mug", "hook")
     assert target["requested"] == {"pos": [0.0, 0.0, 50.0], "rot": [-35.0, 0.0, -90.0]}
     assert target["position_error_mm"] < 5.0  # the chain is long enough to reach
-    assert set(data["parts"]) == {"rod", "wall", "s1", "s2", "s3", "mug"}
+    assert set(data["parts"]) == {"rod", "wall", "chain.s[1]", "chain.s[2]", "s3", "mug"}
     mug = data["parts"]["mug"]
     assert mug["type"] == "Mug" and mug["mass_g"] == 350.0 and len(mug["matrix"]) == 4
-    assert data["parts"]["s1"]["pos"][2] < 200.0  # hangs below the rod
-    first = data["connections"][0]
-    assert (first["a"], first["b"]) == ("s1.hook2", "rod") and "rod.t" in first["dofs"]
+    assert data["parts"]["chain.s[1]"]["pos"][2] < 200.0  # hangs below the rod
+    (on_rod,) = [c for c in data["connections"] if c["b"] == "rod"]
+    assert on_rod["a"] == "chain.s[1].hook2" and "rod.t" in on_rod["dofs"]
     assert set(data["timing"]) == {"parse_s", "check_s", "solve_s"}
 
 
@@ -47,7 +47,7 @@ def test_human_summary() -> None:
     run = fabhal("solve", "programs/mug_hanger.fhl")
     assert run.returncode == 0
     assert "programs/mug_hanger.fhl: solved" in run.stdout
-    assert "s1.hook2  <-  rod" in run.stdout
+    assert "chain.s[1].hook2  <-  rod" in run.stdout
 
 
 def test_a_hack_that_falls_apart_exits_one(tmp_path: Path) -> None:

@@ -1,0 +1,143 @@
+"""The gallery (programs/*.fhl) as the integration test: every program checks
+cleanly and solves, and each ends in a physically meaningful state.
+
+Tolerances: loops close to 1e-6 mm (the solver's own bar); positions compare
+with margins of millimetres, well above the solver's 1e-6 but far below the
+effects asserted (hooks hundreds of mm apart, tilts of tens of degrees).
+"""
+
+from __future__ import annotations
+
+from functools import cache
+from typing import Any
+
+import numpy as np
+import pytest
+
+from fabhal import api
+from fabhal.diagnostics import Severity
+from tests.conftest import REPO
+
+PROGRAMS = sorted(p.stem for p in (REPO / "programs").glob("*.fhl"))
+KNOWN_TO_FALL = {
+    "reading_nook": "step 1 leaves the taped S-hook s2 turned onto its tip and ring4 slides off it "
+    "(the loop of three chains to the hoop; see the issue notes)",
+}
+
+
+@cache
+def solved(program: str) -> Any:
+    return api.solve(REPO / "programs" / f"{program}.fhl")
+
+
+def position(result: Any, part: str) -> np.ndarray:
+    solution = result.solution
+    return solution.frames[solution.model.part_index(part)][:3, 3]
+
+
+def tilt_deg(result: Any, part: str) -> float:
+    """Angle between the part's z axis and the vertical."""
+    solution = result.solution
+    z_axis = solution.frames[solution.model.part_index(part)][:3, 2]
+    return float(np.degrees(np.arccos(np.clip(z_axis[2], -1.0, 1.0))))
+
+
+def test_the_gallery_has_every_program_of_the_paper() -> None:
+    expected = {
+        "demo", "toothbrush_holder", "charger_holder", "soap_bottle_holder", "mug_hanger", "bird_feeder",
+        "paper_towel_holder", "diaper_caddy", "closet_basket", "reading_nook", "clip_light_xs",
+        "clip_light_s", "clip_light_m", "clip_light_l", "soap_bottle_one_eyehook",
+    }  # fmt: skip
+    assert set(PROGRAMS) == expected
+
+
+@pytest.mark.parametrize("program", PROGRAMS)
+def test_program_checks_cleanly_and_solves(program: str) -> None:
+    if program in KNOWN_TO_FALL:
+        pytest.xfail(KNOWN_TO_FALL[program])  # test_reading_nook_holds fails loudly once it holds
+    result = solved(program)
+    problems = [d for d in result.check.diagnostics if d.severity in (Severity.ERROR, Severity.WARNING)]
+    assert problems == [], problems
+    assert result.status == "solved", result.diagnostics
+    solution = result.solution
+    assert solution.residual < 1e-6  # mm: every loop closed
+    position_error, rotation_error = solution.target_errors()
+    assert np.isfinite(position_error) and np.isfinite(rotation_error)
+    assert solution.equilibrium is not None and solution.equilibrium < 1e-3  # at rest
+
+
+@pytest.mark.xfail(strict=True, reason=KNOWN_TO_FALL["reading_nook"])
+def test_reading_nook_holds() -> None:
+    assert solved("reading_nook").status == "solved"
+
+
+def test_bird_feeder_hangs_between_the_two_wall_hooks() -> None:
+    result = solved("bird_feeder")
+    left, right, feeder = (position(result, p) for p in ("left.e", "right.e", "feeder"))
+    assert left[1] + 100 < feeder[1] < right[1] - 100  # along the wall, well inside
+    assert feeder[2] < min(left[2], right[2]) - 200  # and below both
+
+
+def test_mug_hangs_straight_below_the_rod() -> None:
+    result = solved("mug_hanger")
+    hooks = [position(result, p) for p in ("chain.s[1]", "chain.s[2]", "s3")]
+    assert all(np.hypot(h[0], h[1]) < 1.0 for h in hooks)  # the chain hangs plumb under the rod's middle
+    assert hooks[0][2] > hooks[1][2] > hooks[2][2] > position(result, "mug")[2]
+    assert solved("mug_hanger").solution.target_errors()[0] < 5.0  # the handle reaches its place
+
+
+def test_two_eye_hooks_keep_the_soap_basket_far_more_level_than_one() -> None:
+    two = tilt_deg(solved("soap_bottle_holder"), "soap")
+    one = tilt_deg(solved("soap_bottle_one_eyehook"), "soap")
+    # hung by one handle the basket tips over; with both held it only leans as its
+    # hooks slide to one end of the straight handles (see the issue notes)
+    assert one > 30.0 and one - two > 20.0
+
+
+def test_closet_basket_hangs_level_between_the_rods() -> None:
+    result = solved("closet_basket")
+    first, second, basket = (position(result, p) for p in ("hanger.e1", "hanger.e2", "basket"))
+    assert min(first[0], second[0]) < basket[0] < max(first[0], second[0])
+    assert tilt_deg(result, "basket") < 5.0
+
+
+def test_clip_lights_hang_plumb_below_the_ceiling_hook() -> None:
+    for program in ("clip_light_xs", "clip_light_s", "clip_light_m", "clip_light_l"):
+        result = solved(program)
+        names = [p.name for p in result.solution.model.parts if p.name.startswith("chain.")]
+        for name in names:
+            assert np.hypot(*position(result, name)[:2]) < 1.0, (program, name)
+        heights = [position(result, name)[2] for name in names]
+        assert heights == sorted(heights, reverse=True)  # each link below the one above
+        assert position(result, "light")[2] < heights[-1]
+
+
+def test_charger_cable_reaches_its_place_through_both_binder_rings() -> None:
+    result = solved("charger_holder")
+    assert result.solution.target_errors()[0] < 5.0  # mm
+
+
+def test_demo_ring_hangs_below_the_rod() -> None:
+    result = solved("demo")
+    assert position(result, "ring")[2] < position(result, "s")[2] < position(result, "rod")[2]
+
+
+def test_diaper_caddy_hangs_between_its_two_hook_chains() -> None:
+    result = solved("diaper_caddy")
+    left, right, caddy = (position(result, p) for p in ("s3", "s4", "caddy"))
+    assert left[0] < caddy[0] < right[0]
+    assert caddy[2] < min(left[2], right[2]) - 100
+    assert tilt_deg(result, "caddy") < 5.0
+
+
+def test_paper_towel_roll_sits_on_the_broom_below_the_eye_hooks() -> None:
+    result = solved("paper_towel_holder")
+    first, second, roll = (position(result, p) for p in ("eyehook1", "eyehook2", "roll"))
+    assert min(first[1], second[1]) <= roll[1] <= max(first[1], second[1])
+    assert roll[2] < min(first[2], second[2])
+
+
+def test_toothbrush_stands_above_the_counter() -> None:
+    result = solved("toothbrush_holder")
+    assert position(result, "brush")[2] > position(result, "clip")[2] > 0.0
+    assert result.solution.target_errors()[0] < 5.0
