@@ -123,7 +123,10 @@ class Model:
 
     def _forward(self, x: Array, with_twists: bool) -> Forward:
         layout = self.layout
-        local = layout.local_frames(x)
+        if with_twists:
+            local, d_local = layout.local_frames_and_derivatives(x)
+        else:
+            local, d_local = layout.local_frames(x), None
         frames = layout.environment_frames.copy()
         inverse_local = invert(local)
         for level in layout.levels:  # all parts at one depth of the tree at once
@@ -133,13 +136,13 @@ class Model:
                 @ level.offset
                 @ inverse_local[level.child_side]
             )
-        if not with_twists:
+        if d_local is None:
             return Forward(frames, local, None, None)
         # the twist of a DoF turns its side's part about that side's connector:
         # W dL inv(W L); a parent-side DoF moves the child with it, a child-side
         # DoF moves the child against its own connector (the minus sign)
         on_part = frames[layout.dof_part]
-        own = on_part @ layout.local_derivatives(x) @ invert(on_part @ local[layout.dof_side])
+        own = on_part @ d_local @ invert(on_part @ local[layout.dof_side])
         return Forward(frames, local, layout.tree_sign[:, None, None] * own, own)
 
     def closure_errors(self, x: Array, frames: Array | None = None) -> Array:
@@ -202,7 +205,7 @@ class Forward:
     own_twists: Array | None  # (n_dofs, 4, 4) each DoF's twist of its own side's connector
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class SideGroup:
     """The connection sides of one primitive variant, evaluated together."""
 
@@ -211,6 +214,23 @@ class SideGroup:
     params: dict[str, Array]  # (n,) each
     base: Array  # (n, 4, 4) primitive-in-part frames
     dofs: Array  # (n, k) indices into x
+
+    @cached_property
+    def probe_steps(self) -> Array:
+        """(2k + 1, k): the point itself, then +-_STEP on each DoF in turn."""
+        k = self.dofs.shape[1]
+        steps = np.zeros((2 * k + 1, k))
+        steps[1::2][np.arange(k), np.arange(k)] = _STEP
+        steps[2::2][np.arange(k), np.arange(k)] = -_STEP
+        return steps
+
+    @cached_property
+    def probe_params(self) -> dict[str, Array]:
+        return {name: values[:, None] for name, values in self.params.items()}
+
+    @cached_property
+    def probe_base(self) -> Array:
+        return self.base[:, None]
 
 
 @dataclass(frozen=True)
@@ -248,23 +268,21 @@ class ChainLayout:
             out[group.sides] = group.base @ group.formula(group.params, x[group.dofs])
         return out
 
-    def local_derivatives(self, x: Array) -> Array:
-        """(n_dofs, 4, 4): d(connector frame in its part)/dx_i for each DoF's own
-        side, to ~1e-10 (central differences of the smooth closed-form formulas)."""
-        out = np.zeros((self.n_dofs, 4, 4))
+    def local_frames_and_derivatives(self, x: Array) -> tuple[Array, Array]:
+        """`local_frames` and (n_dofs, 4, 4): d(connector frame in its part)/dx_i
+        for each DoF's own side, to ~1e-10 (central differences of the smooth
+        closed-form formulas), from one formula call per variant."""
+        frames = np.empty((self.n_sides, 4, 4))
+        derivatives = np.zeros((self.n_dofs, 4, 4))
         for group in self.groups:
             n, k = group.dofs.shape
-            if k == 0:
-                continue
-            probes = np.repeat(x[group.dofs][:, None, :], 2 * k, axis=1)  # (n, 2k, k)
-            steps = np.zeros((2 * k, k))
-            steps[0::2][np.arange(k), np.arange(k)] = _STEP
-            steps[1::2][np.arange(k), np.arange(k)] = -_STEP
-            params = {name: values[:, None] for name, values in group.params.items()}
-            frames = group.base[:, None] @ group.formula(params, probes + steps)  # (n, 2k, 4, 4)
-            derivative = (frames[:, 0::2] - frames[:, 1::2]) / (2 * _STEP)  # (n, k, 4, 4)
-            out[group.dofs.ravel()] = derivative.reshape(n * k, 4, 4)
-        return out
+            probes = x[group.dofs][:, None, :] + group.probe_steps  # (n, 2k + 1, k)
+            values = group.probe_base @ group.formula(group.probe_params, probes)  # (n, 2k + 1, 4, 4)
+            frames[group.sides] = values[:, 0]
+            if k:
+                derivative = (values[:, 1::2] - values[:, 2::2]) / (2 * _STEP)  # (n, k, 4, 4)
+                derivatives[group.dofs.ravel()] = derivative.reshape(n * k, 4, 4)
+        return frames, derivatives
 
     def closure_worlds(self, local: Array, frames: Array) -> tuple[Array, Array]:
         """(k, 4, 4) world frames of each loop's a connector (with the offset) and b connector,

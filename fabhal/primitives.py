@@ -283,15 +283,18 @@ def _rod(p: Mapping[str, float | Array], x: Array) -> Array:
     return translation(0.0, p["radius"], (x[..., 0] - 0.5) * p["length"]) @ rot_x(x[..., 1] - 180.0)
 
 
+_AXIS_TO_Y = rot_x(-90.0)  # a centre-line connector's y runs along the primitive's axis
+
+
 def _rod_centerline(p: Mapping[str, float | Array], x: Array) -> Array:
     spin = x[..., 1] if x.shape[-1] > 1 else np.zeros(x.shape[:-1])  # about the axis: connector y
-    along = translation(0.0, 0.0, (x[..., 0] - 0.5) * p["length"]) @ rot_x(np.full(x.shape[:-1], -90.0))
+    along = translation(0.0, 0.0, (x[..., 0] - 0.5) * p["length"]) @ _AXIS_TO_Y
     return along @ rot_y(spin)
 
 
 def _tube_at(rho: float | Array, p: Mapping[str, float | Array], x: Array) -> Array:
     theta = np.radians(x[..., 1])
-    along = translation(0.0, 0.0, (x[..., 0] - 0.5) * p["length"]) @ rot_x(np.full(x.shape[:-1], -90.0))
+    along = translation(0.0, 0.0, (x[..., 0] - 0.5) * p["length"]) @ _AXIS_TO_Y
     around = translation(-rho * np.sin(theta), 0.0, -rho * np.cos(theta)) @ rot_y(x[..., 1])
     return along @ around
 

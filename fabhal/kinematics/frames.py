@@ -52,12 +52,10 @@ def rot_z(deg: ArrayLike) -> Array:
 
 def translation(x: ArrayLike, y: ArrayLike, z: ArrayLike) -> Array:
     """Broadcast (...,) coordinates -> (..., 4, 4) translations."""
-    xs, ys, zs = np.broadcast_arrays(
-        np.asarray(x, dtype=float), np.asarray(y, dtype=float), np.asarray(z, dtype=float)
-    )
-    out = np.zeros((*xs.shape, 4, 4))
+    # assignment broadcasts; np.broadcast_arrays costs more than the rest (hot in the solver)
+    out = np.zeros((*np.broadcast_shapes(np.shape(x), np.shape(y), np.shape(z)), 4, 4))
     out[..., 0, 0] = out[..., 1, 1] = out[..., 2, 2] = out[..., 3, 3] = 1.0
-    out[..., 0, 3], out[..., 1, 3], out[..., 2, 3] = xs, ys, zs
+    out[..., 0, 3], out[..., 1, 3], out[..., 2, 3] = x, y, z
     return out
 
 

@@ -28,8 +28,10 @@ from fabhal.solve.spacing import Spacing, spacing_jacobian, spacing_values
 GRAVITY = 9.81  # m/s2
 CLOSED_MM = 1e-6
 FIT_EVALUATIONS = 200  # per start of step 1 without loops
+FIT_FTOL = 1e-8
 # a start whose target residual (mm, and degrees counted as mm) is this close needs no other start
 GOOD_FIT = 0.5
+SETTLE_ITERATIONS = 300  # SLSQP iterations of one settle with loops
 NATURAL_WEIGHT = (
     0.05  # see fit_target: 20 mm of strain away from a DoF's middle costs like 1 mm of target error
 )
@@ -151,6 +153,7 @@ def fit_target(problem: Problem, goal: target_mod.TargetGoal, starts: list[Array
                 method="trf",
                 x_scale="jac",
                 max_nfev=FIT_EVALUATIONS,
+                ftol=FIT_FTOL,
             ).x
         cost = float(residual(v) @ residual(v))
         if cost < best_cost and _feasible(problem, v):
@@ -191,7 +194,7 @@ def settle(problem: Problem, energy: Callable[[Array], tuple[float, Array]], sta
         return energy(problem.full(v))[1][problem.free]
 
     if problem.constraints():
-        return _slsqp(problem, value, gradient, start)
+        return _slsqp(problem, value, gradient, start, SETTLE_ITERATIONS)
     low, high = problem.bounds()
     bounds = list(zip(_finite_or_none(low), _finite_or_none(high), strict=True))
     result = minimize(
@@ -210,7 +213,11 @@ def _finite_or_none(values: Array) -> list[float | None]:
 
 
 def _slsqp(
-    problem: Problem, value: Callable[[Array], float], gradient: Callable[[Array], Array], start: Array
+    problem: Problem,
+    value: Callable[[Array], float],
+    gradient: Callable[[Array], Array],
+    start: Array,
+    iterations: int = 300,
 ) -> Array:
     """SLSQP in millimetres: each DoF is scaled by how far it moves its connection
     (`mm_per_unit`), so a slide along a 500 mm rod and a turn of a hook weigh
@@ -235,7 +242,7 @@ def _slsqp(
         method="SLSQP",
         bounds=bounds,
         constraints=constraints,
-        options={"maxiter": 300, "ftol": 1e-12},
+        options={"maxiter": iterations, "ftol": 1e-12},
     )
     v = np.clip(result.x / scale, low, high)
     return _project(problem, v)
