@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import itertools
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -74,7 +75,7 @@ def build_scene(solution: Solution, title: str, options: RenderOptions) -> Scene
     for i, part in enumerate(model.parts):
         role = "environment" if part.environment else "target" if i == target_part else "part"
         color = {"environment": ENVIRONMENT_COLOR, "target": TARGET_COLOR}.get(role) or next(colors)
-        mesh = part_mesh(part.spec)
+        mesh = _with_body(part.spec, part_mesh(part.spec))
         items.append(_item(part.name, role, mesh, solution.frames[i], color))
         if options.primitives:
             for primitive in part.spec.primitives:
@@ -96,6 +97,26 @@ def build_scene(solution: Solution, title: str, options: RenderOptions) -> Scene
         solution.target_frame(),
         tuple(hanging_lines(model)),
     )
+
+
+BODY_RADIUS_MM = 2.0
+
+
+def _with_body(spec: Any, mesh: Any) -> Any:
+    """A part with no mesh file is drawn from its primitives; where they lie apart
+    (a turnbuckle's two hooks) a thin rod joins them so it reads as one object.
+    Drawing only: masses and centres of mass never see it."""
+    import trimesh
+
+    if spec.mesh is not None or len(spec.primitives) < 2:
+        return mesh
+    origins = [np.array(p.position, dtype=float) for p in spec.primitives]
+    sticks = [
+        trimesh.creation.cylinder(radius=BODY_RADIUS_MM, segment=(a, b), sections=12)
+        for a, b in itertools.pairwise(origins)
+        if np.linalg.norm(b - a) > BODY_RADIUS_MM
+    ]
+    return trimesh.util.concatenate([mesh, *sticks]) if sticks else mesh
 
 
 def _item(

@@ -32,6 +32,7 @@ FIT_FTOL = 1e-8
 # a start whose target residual (mm, and degrees counted as mm) is this close needs no other start
 GOOD_FIT = 0.5
 SETTLE_ITERATIONS = 300  # SLSQP iterations of one settle with loops
+SLSQP_FTOL = 1e-12  # joules: looser (1e-9, 1e-7) saved little time and left some settles short of rest
 NATURAL_WEIGHT = (
     0.05  # see fit_target: 20 mm of strain away from a DoF's middle costs like 1 mm of target error
 )
@@ -242,7 +243,7 @@ def _slsqp(
         method="SLSQP",
         bounds=bounds,
         constraints=constraints,
-        options={"maxiter": iterations, "ftol": 1e-12},
+        options={"maxiter": iterations, "ftol": SLSQP_FTOL},
     )
     v = np.clip(result.x / scale, low, high)
     return _project(problem, v)
