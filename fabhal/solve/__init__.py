@@ -97,7 +97,7 @@ def solve(model: Model, options: SolveOptions, loop_start: Array | None = None) 
 
     free = np.array([i for i in range(len(model.variables)) if i not in model.pinned], dtype=int)
     step1 = Problem(model, free, x0.copy(), spacing, deadline)
-    v, late = fit_target(step1, goal, [s[free] for s in starts])
+    v, late = fit_target(step1, goal, _distinct([s[free] for s in starts]))
     x = step1.full(v)
     if late:
         notes.append(_late(options))
@@ -142,6 +142,16 @@ def solve(model: Model, options: SolveOptions, loop_start: Array | None = None) 
         falls,
         tuple(diagnostics),
     )
+
+
+def _distinct(starts: list[Array]) -> list[Array]:
+    """The starts without repeats: closing the loops from a random point often
+    lands on a configuration already tried, and fitting it again gains nothing."""
+    kept: list[Array] = []
+    for start in starts:
+        if all(np.abs(start - other).max() > 1e-6 for other in kept):
+            kept.append(start)
+    return kept
 
 
 def _settle_stably(
