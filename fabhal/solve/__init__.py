@@ -10,12 +10,12 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from fabhal.check.cycles import close_loops
-from fabhal.diagnostics import Diagnostic, error, warning
+from fabhal.diagnostics import Diagnostic, Severity, error, warning
 from fabhal.kinematics.frames import Array
 from fabhal.meshes import mass_properties
 from fabhal.model import Joint, Model
@@ -24,6 +24,7 @@ from fabhal.solve.spacing import spacing_constraints, spread
 from fabhal.solve.steps import Problem, closure_residual_mm, fit_target, mm_per_unit, potential, settle
 
 EXTRA_STARTS = 3  # seeded random starts for step 1, besides the spread-out defaults
+FALL_RETRIES = 2  # more attempts, from other seeds' starts, when a result falls apart
 # step 2 settles again from this many nudged copies of its result: a gradient method
 # stays on an unstable balance (a hook upside down on its rod); a nudge falls off it
 NUDGES = 2
@@ -73,6 +74,35 @@ class Solution:
 
 
 def solve(model: Model, options: SolveOptions, loop_start: Array | None = None) -> Solution:
+    """Fit, settle, verify. A configuration that falls apart may be the fault of
+    the start rather than the design (step 1 can leave a `fixed` hook turned onto
+    its tip): up to FALL_RETRIES more attempts from the next seeds' starts, and
+    the first that holds is the answer, with a note saying so. The design falls
+    apart only when every attempt does."""
+    started = time.monotonic()
+    first = _solve_once(model, options, loop_start)
+    if not first.falls or not options.gravity:
+        return first
+    for k in range(1, FALL_RETRIES + 1):
+        remaining = None if options.time_limit is None else options.time_limit - (time.monotonic() - started)
+        if remaining is not None and remaining <= 0:
+            break
+        retry = _solve_once(model, replace(options, seed=options.seed + k, time_limit=remaining), None)
+        if not retry.falls:
+            fall = first.falls[0]
+            held = Diagnostic(
+                Severity.NOTE,
+                "N504",
+                f"from the first start `{fall.part}` slid off here; from another start (seed "
+                f"{options.seed + k}) the design holds",
+                model.joints[fall.joint].connection.span,
+                "the result is that configuration; set up by hand, mind how this connection is turned",
+            )
+            return replace(retry, diagnostics=(held, *retry.diagnostics))
+    return first
+
+
+def _solve_once(model: Model, options: SolveOptions, loop_start: Array | None) -> Solution:
     started = time.monotonic()
     deadline = started + options.time_limit if options.time_limit else float("inf")
     goal = target_mod.goal_of(model)

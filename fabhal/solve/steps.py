@@ -195,7 +195,8 @@ def settle(problem: Problem, energy: Callable[[Array], tuple[float, Array]], sta
         return energy(problem.full(v))[1][problem.free]
 
     if problem.constraints():
-        return _slsqp(problem, value, gradient, start, SETTLE_ITERATIONS)
+        # a long loop settles slowly (its energy valley is flat): more DoFs, more iterations
+        return _slsqp(problem, value, gradient, start, max(SETTLE_ITERATIONS, 12 * len(problem.free)))
     low, high = problem.bounds()
     bounds = list(zip(_finite_or_none(low), _finite_or_none(high), strict=True))
     result = minimize(

@@ -109,3 +109,47 @@ def test_the_same_seed_gives_the_same_answer() -> None:
     first = api.solve(program, seed=3).solution
     second = api.solve(program, seed=3).solution
     np.testing.assert_array_equal(first.x, second.x)
+
+
+def test_a_fall_from_the_first_start_is_retried_from_the_next_seeds(monkeypatch) -> None:  # type: ignore[no-untyped-def]
+    """The policy of fabhal.solve.solve, with the attempts stubbed: seed 0 falls,
+    seed 1 holds -> the seed-1 result with an N504 note at the failing connection."""
+    import dataclasses
+
+    import fabhal.solve as solver
+
+    real = api.solve(REPO / "programs" / "mug_hanger.fhl").solution
+    assert real is not None and not real.falls
+    fall = solver.Fall(joint=0, dof=0, end="max", part="chain.s[1]")
+    seeds: list[int] = []
+
+    def attempt(model, options, loop_start):  # type: ignore[no-untyped-def]
+        seeds.append(options.seed)
+        if options.seed == 0:
+            return dataclasses.replace(real, status="falls_apart", falls=(fall,))
+        return real
+
+    monkeypatch.setattr(solver, "_solve_once", attempt)
+    result = solver.solve(real.model, solver.SolveOptions(seed=0))
+    assert seeds == [0, 1] and result.status == "solved"
+    (note,) = [d for d in result.diagnostics if d.code == "N504"]
+    assert "seed 1" in note.message and note.span == real.model.joints[0].connection.span
+
+
+def test_a_design_that_falls_from_every_start_falls_apart(monkeypatch) -> None:  # type: ignore[no-untyped-def]
+    import dataclasses
+
+    import fabhal.solve as solver
+
+    real = api.solve(REPO / "programs" / "mug_hanger.fhl").solution
+    fall = solver.Fall(joint=0, dof=0, end="max", part="chain.s[1]")
+    seeds: list[int] = []
+
+    def attempt(model, options, loop_start):  # type: ignore[no-untyped-def]
+        seeds.append(options.seed)
+        return dataclasses.replace(real, status="falls_apart", falls=(fall,))
+
+    monkeypatch.setattr(solver, "_solve_once", attempt)
+    result = solver.solve(real.model, solver.SolveOptions(seed=5))
+    assert seeds == [5, 6, 7] and result.status == "falls_apart"
+    assert not any(d.code == "N504" for d in result.diagnostics)
