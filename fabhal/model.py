@@ -196,6 +196,11 @@ class Model:
     def layout(self) -> ChainLayout:
         return _chain_layout(self)
 
+    @cached_property
+    def subtrees(self) -> dict[int, set[int]]:
+        """For each part, itself and every part hung below it in the tree."""
+        return _subtrees(self)
+
 
 @dataclass(frozen=True)
 class Forward:
@@ -322,7 +327,7 @@ def _chain_layout(model: Model) -> ChainLayout:
         dof_side[list(side.dof_indices)] = s
     tree_sign = np.zeros(n_dofs)
     moves = np.zeros((n_dofs, n_parts), dtype=bool)
-    subtrees = _subtrees(model)
+    subtrees = model.subtrees
     for edge in model.tree:
         joint = model.joints[edge.joint]
         parent, child = (joint.a, joint.b) if edge.parent_side == "a" else (joint.b, joint.a)

@@ -21,7 +21,15 @@ from fabhal.meshes import mass_properties
 from fabhal.model import Joint, Model
 from fabhal.solve import target as target_mod
 from fabhal.solve.spacing import spacing_constraints, spread
-from fabhal.solve.steps import Problem, closure_residual_mm, fit_target, mm_per_unit, potential, settle
+from fabhal.solve.steps import (
+    Problem,
+    closure_residual_mm,
+    fit_target,
+    mm_per_unit,
+    potential,
+    settle,
+    with_friction,
+)
 
 EXTRA_STARTS = 3  # seeded random starts for step 1, besides the spread-out defaults
 FALL_RETRIES = 2  # more attempts, from other seeds' starts, when a result falls apart
@@ -139,7 +147,7 @@ def _solve_once(model: Model, options: SolveOptions, loop_start: Array | None) -
         held = {i for j in model.joints if j.held for i in j.a.dof_indices + j.b.dof_indices}
         movable = np.array([i for i in free if i not in held], dtype=int)
         step2 = Problem(model, movable, x.copy(), spacing, deadline)
-        energy = potential(model, masses, centres)
+        energy = with_friction(model, potential(model, masses, centres), masses, x)
         if len(movable):
             x = _settle_stably(step2, energy, x, rng)
         equilibrium, at_bound, falls = _verify(step2, energy, x, masses)

@@ -26,6 +26,10 @@ from fabhal.solve import target as target_mod
 from fabhal.solve.spacing import Spacing, spacing_jacobian, spacing_values
 
 GRAVITY = 9.81  # m/s2
+FRICTION = (
+    0.3  # static friction coefficient of a part sliding along a rod, tube or edge (steel, plastic, wood)
+)
+FRICTION_SMOOTHING_MM = 0.01  # |s| is smoothed as sqrt(s^2 + 0.01^2) - 0.01 for the gradient methods
 CLOSED_MM = 1e-6
 FIT_EVALUATIONS = 200  # per start of step 1 without loops
 FIT_FTOL = 1e-8
@@ -182,6 +186,60 @@ def potential(model: Model, masses: Array, centres: Array) -> Callable[[Array], 
         return float(weights @ heights), grad
 
     return energy
+
+
+def with_friction(
+    model: Model, energy: Callable[[Array], tuple[float, Array]], masses: Array, start: Array
+) -> Callable[[Array], tuple[float, Array]]:
+    """The energy plus static friction on slides along rods, tubes and edges.
+
+    Quasi-static friction as a dissipation potential (the incremental energy of
+    rate-independent friction): sliding s mm from where step 1 put it costs
+    FRICTION x (the weight the connection carries) x |s|, smoothed over
+    FRICTION_SMOOTHING_MM. So a slide moves only where gravity pulls along it
+    harder than friction holds (a hook on a rod sloping more than atan(0.3) =
+    17 degrees slides off), and a basket hung from two hooks on its straight
+    handles stays level instead of letting both hooks slip to one end. Turning
+    DoFs (a hook rolling round its rod) stay frictionless."""
+    weights = masses / 1000.0 * GRAVITY / 1000.0  # joules per mm of height
+    slides, loads = [], []
+    for joint in model.joints:
+        for side in (joint.a, joint.b):
+            if side.primitive.kind in ("rod", "tube", "edge") and side.dof_indices:
+                t = side.dof_indices[0]  # the slide along the primitive comes first
+                if model.variables[t].dof.name == "t" and t not in model.pinned:
+                    slides.append(t)
+                    loads.append(_carried_weight(model, joint.index, weights))
+    if not slides:
+        return energy
+    index = np.array(slides)
+    lengths = mm_per_unit(model)[index]
+    force = FRICTION * np.array(loads)  # joules per mm of sliding
+    origin = start[index].copy()
+
+    def total(x: Array) -> tuple[float, Array]:
+        value, gradient = energy(x)
+        moved = (x[index] - origin) * lengths
+        root = np.sqrt(moved**2 + FRICTION_SMOOTHING_MM**2)
+        gradient = gradient.copy()
+        gradient[index] += force * moved / root * lengths
+        return value + float(force @ (root - FRICTION_SMOOTHING_MM)), gradient
+
+    return total
+
+
+def _carried_weight(model: Model, joint: int, weights: Array) -> float:
+    """The weight a connection carries (joules per mm): what hangs below it in
+    the tree; a connection that closes a loop shares the load, taken as half of
+    what hangs below the heavier of its two parts."""
+    for edge in model.tree:
+        if edge.joint == joint:
+            j = model.joints[joint]
+            child = j.b.part if edge.parent_side == "a" else j.a.part
+            return float(weights[list(model.subtrees[child])].sum())
+    j = model.joints[joint]
+    below = [float(weights[list(model.subtrees[p])].sum()) for p in (j.a.part, j.b.part)]
+    return 0.5 * max(below)
 
 
 def settle(problem: Problem, energy: Callable[[Array], tuple[float, Array]], start: Array) -> Array:

@@ -153,3 +153,27 @@ def test_a_design_that_falls_from_every_start_falls_apart(monkeypatch) -> None: 
     result = solver.solve(real.model, solver.SolveOptions(seed=5))
     assert seeds == [5, 6, 7] and result.status == "falls_apart"
     assert not any(d.code == "N504" for d in result.diagnostics)
+
+
+def _slide_on_closed_rod(tmp_path: Path, tilt: float) -> tuple[float, float, bool]:
+    """On a 300 mm closed rod sloping `tilt` degrees: where step 1 puts the hook (t),
+    where it ends after settling, and whether that is an end of the rod."""
+    program = tmp_path / "slope.fhl"
+    program.write_text(S_HOOK_ON_ROD.format(length=300, extra=", slide_off: false", roll=90 + tilt))
+    fitted = api.solve(program, gravity=False).solution
+    settled = api.solve(program).solution
+    assert fitted is not None and settled is not None
+    t = next(i for i, v in enumerate(settled.model.variables) if v.name == "rod.rod.t")
+    return float(fitted.x[t]), float(settled.x[t]), t in settled.at_bound
+
+
+def test_friction_holds_a_hook_on_a_gentle_slope(tmp_path: Path) -> None:
+    # 10 degrees: tan 10 = 0.18 < 0.3, the hook stays where step 1 put it
+    placed, settled, at_end = _slide_on_closed_rod(tmp_path, 10.0)
+    assert not at_end and abs(settled - placed) < 1e-3  # moved under 0.3 mm along the 300 mm rod
+
+
+def test_a_hook_slides_down_a_steep_slope_to_the_end(tmp_path: Path) -> None:
+    # 30 degrees: tan 30 = 0.58 > 0.3, it slides down to the closed end and rests there
+    placed, settled, at_end = _slide_on_closed_rod(tmp_path, 30.0)
+    assert at_end and settled in (0.0, 1.0) and abs(settled - placed) > 0.3
