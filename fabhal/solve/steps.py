@@ -29,7 +29,9 @@ GRAVITY = 9.81  # m/s2
 FRICTION = (
     0.3  # static friction coefficient of a part sliding along a rod, tube or edge (steel, plastic, wood)
 )
-FRICTION_SMOOTHING_MM = 0.01  # |s| is smoothed as sqrt(s^2 + 0.01^2) - 0.01 for the gradient methods
+# |s| is smoothed as sqrt(s^2 + 0.5^2) - 0.5 for the gradient methods: a held part may
+# creep up to about half a millimetre (a contact's elastic give) before friction holds
+FRICTION_SMOOTHING_MM = 0.5
 CLOSED_MM = 1e-6
 FIT_EVALUATIONS = 200  # per start of step 1 without loops
 FIT_FTOL = 1e-8
@@ -255,17 +257,24 @@ def settle(problem: Problem, energy: Callable[[Array], tuple[float, Array]], sta
     if problem.constraints():
         # a long loop settles slowly (its energy valley is flat): more DoFs, more iterations
         return _slsqp(problem, value, gradient, start, max(SETTLE_ITERATIONS, 12 * len(problem.free)))
+    # in millimetres, as for SLSQP: a slide's friction is stiff per unit of t
+    scale = mm_per_unit(problem.model)[problem.free]
     low, high = problem.bounds()
-    bounds = list(zip(_finite_or_none(low), _finite_or_none(high), strict=True))
+    bounds = list(zip(_finite_or_none(low * scale), _finite_or_none(high * scale), strict=True))
+
+    def scaled(u: Array) -> tuple[float, Array]:
+        value, gradient = energy(problem.full(u / scale))
+        return value, gradient[problem.free] / scale
+
     result = minimize(
-        lambda v: energy(problem.full(v)),
-        start,
+        scaled,
+        start * scale,
         jac=True,
         method="L-BFGS-B",
         bounds=bounds,
         options={"maxiter": 500, "ftol": 1e-15, "gtol": 1e-12},
     )
-    return result.x
+    return np.clip(result.x / scale, low, high)
 
 
 def _finite_or_none(values: Array) -> list[float | None]:

@@ -170,7 +170,9 @@ def _slide_on_closed_rod(tmp_path: Path, tilt: float) -> tuple[float, float, boo
 def test_friction_holds_a_hook_on_a_gentle_slope(tmp_path: Path) -> None:
     # 10 degrees: tan 10 = 0.18 < 0.3, the hook stays where step 1 put it
     placed, settled, at_end = _slide_on_closed_rod(tmp_path, 10.0)
-    assert not at_end and abs(settled - placed) < 1e-3  # moved under 0.3 mm along the 300 mm rod
+    # friction is smoothed over FRICTION_SMOOTHING_MM = 0.5 mm, so a held hook creeps
+    # 0.5 r / sqrt(1 - r^2) mm with r = tan 10 / 0.3 = 0.59: 0.37 mm; sliding would be 150 mm
+    assert not at_end and abs(settled - placed) * 300 < 1.0
 
 
 def test_a_hook_slides_down_a_steep_slope_to_the_end(tmp_path: Path) -> None:
