@@ -33,7 +33,8 @@ FRICTION = (
 # creep up to about half a millimetre (a contact's elastic give) before friction holds
 FRICTION_SMOOTHING_MM = 0.5
 CLOSED_MM = 1e-6
-FIT_EVALUATIONS = 200  # per start of step 1 without loops
+FIT_EVALUATIONS = 200  # for the most promising start of step 1 without loops
+FIT_PROBE_EVALUATIONS = 60  # for each start first
 FIT_FTOL = 1e-8
 # a start whose target residual (mm, and degrees counted as mm) is this close needs no other start
 GOOD_FIT = 0.5
@@ -135,33 +136,63 @@ def fit_target(problem: Problem, goal: target_mod.TargetGoal, starts: list[Array
         fwd = model.forward(problem.full(v), with_twists=True)
         return target_mod.residual_jacobian(goal, model, fwd)[:, problem.free]
 
-    constrained = bool(problem.constraints())
+    low, high = problem.bounds()
+    if problem.constraints():
+        return _fit_each(problem, starts, residual, jacobian)
+
+    from scipy.optimize import least_squares
+
+    def fit(start: Array, evaluations: int) -> tuple[Array, float]:
+        v = least_squares(
+            residual,
+            np.clip(start, low, high),
+            jac=jacobian,
+            bounds=(low, high),
+            method="trf",
+            x_scale="jac",
+            max_nfev=evaluations,
+            ftol=FIT_FTOL,
+        ).x
+        r = residual(v)
+        return v, float(r @ r) if _feasible(problem, v) else np.inf
+
+    # every start for a few evaluations, then the most promising one to the end: a
+    # chain that cannot reach its target converges slowly from every start
+    probes: list[tuple[float, Array]] = []
+    for start in starts:
+        if problem.out_of_time():
+            break
+        v, cost = fit(start, FIT_PROBE_EVALUATIONS)
+        probes.append((cost, v))
+        if cost < GOOD_FIT**2:
+            return v, False  # the other starts are there for when this one is stuck far away
+    if not probes:
+        return starts[0], True
+    cost, best = min(probes, key=lambda probe: probe[0])
+    if problem.out_of_time():
+        return best, True
+    v, final = fit(best, FIT_EVALUATIONS)
+    return (v if final <= cost else best), False
+
+
+def _fit_each(
+    problem: Problem,
+    starts: list[Array],
+    residual: Callable[[Array], Array],
+    jacobian: Callable[[Array], Array],
+) -> tuple[Array, bool]:
+    """With loops: SLSQP from each start under the closure constraints; the best."""
     low, high = problem.bounds()
     best_v, best_cost = starts[0], np.inf
     for start in starts:
         if problem.out_of_time():
             return best_v, True
-        start = np.clip(start, low, high)
-        if constrained:
-            v = _slsqp(
-                problem,
-                lambda u: 0.5 * float(residual(u) @ residual(u)),
-                lambda u: jacobian(u).T @ residual(u),
-                start,
-            )
-        else:
-            from scipy.optimize import least_squares
-
-            v = least_squares(
-                residual,
-                start,
-                jac=jacobian,
-                bounds=(low, high),
-                method="trf",
-                x_scale="jac",
-                max_nfev=FIT_EVALUATIONS,
-                ftol=FIT_FTOL,
-            ).x
+        v = _slsqp(
+            problem,
+            lambda u: 0.5 * float(residual(u) @ residual(u)),
+            lambda u: jacobian(u).T @ residual(u),
+            np.clip(start, low, high),
+        )
         cost = float(residual(v) @ residual(v))
         if cost < best_cost and _feasible(problem, v):
             best_v, best_cost = v, cost
