@@ -20,7 +20,7 @@ from fabhal.kinematics.frames import Array
 from fabhal.meshes import mass_properties
 from fabhal.model import Joint, Model
 from fabhal.solve import target as target_mod
-from fabhal.solve.spacing import spacing_constraints, spread
+from fabhal.solve.spacing import spacing_constraints, spacing_values, spread
 from fabhal.solve.steps import (
     Problem,
     closure_residual_mm,
@@ -122,9 +122,15 @@ def _solve_once(model: Model, options: SolveOptions, loop_start: Array | None) -
     x0 = model.x_default()
     spacing = spacing_constraints(model, spread(spacing_constraints(model, x0), x0))
     x0 = spread(spacing, x0)
-    starts = [x0 if loop_start is None or not model.closures else loop_start]
+    starts = [x0]
     if model.closures:
-        starts[0] = close_loops(model, options.seed, x0=x0).x
+        # the check already closed the loops once; reuse that unless it breaks the spacing
+        reusable = loop_start is not None and (
+            not spacing or float(spacing_values(spacing, loop_start).min()) > -1e-6
+        )
+        starts[0] = (
+            loop_start if reusable and loop_start is not None else close_loops(model, options.seed, x0=x0).x
+        )
     low, high = model.bounds()
     # with loops every start is closed first and fitted under constraints: fewer, dearer starts
     for _ in range(EXTRA_STARTS if not model.closures else 1):
