@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import time
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -74,6 +74,7 @@ def solve(
     seed: int = 0,
     time_limit: float | None = None,
     gravity: bool = True,
+    progress: Callable[[str], None] | None = None,
 ) -> SolveResult:
     """Check, then (if the design can be built) solve. Raises load.InputError for an unreadable file."""
     from fabhal.solve import SolveOptions
@@ -91,7 +92,7 @@ def solve(
     if not result.ok or result.model is None:
         return SolveResult("error", result, None, seed, timing)
     loops = result.report.loops if result.report is not None else None
-    options = SolveOptions(seed=seed, time_limit=time_limit, gravity=gravity)
+    options = SolveOptions(seed=seed, time_limit=time_limit, gravity=gravity, progress=progress)
     solution = run_solver(result.model, options, loops.x if loops is not None else None)
     timing["solve_s"] = time.perf_counter() - checked
     return SolveResult(solution.status, result, solution, seed, timing)

@@ -339,14 +339,13 @@ def run_check(args: argparse.Namespace) -> int:
 
 
 def run_solve(args: argparse.Namespace) -> int:
-    from fabhal import api
     from fabhal.load import InputError, display_name
     from fabhal.report import solution as report
 
     if _unknown_format(args.render):
         return EXIT_USAGE
     try:
-        result = api.solve(args.file, dict(args.define), args.seed, args.time_limit, not args.no_gravity)
+        result = _solve_with_status(args)
     except InputError as exc:
         _print_diagnostics(exc.diagnostics, {})
         return EXIT_USAGE
@@ -372,15 +371,30 @@ def run_solve(args: argparse.Namespace) -> int:
     return EXIT_OK if result.status == "solved" else EXIT_DIAGNOSTICS
 
 
-def run_render(args: argparse.Namespace) -> int:
+def _solve_with_status(args: argparse.Namespace) -> Any:
+    """api.solve, with a status line on the terminal while it works (only when
+    stderr is a terminal: pipes and JSON consumers see nothing extra)."""
     from fabhal import api
+
+    solve_args = (args.file, dict(args.define), args.seed, args.time_limit, not args.no_gravity)
+    if not sys.stderr.isatty():
+        return api.solve(*solve_args)
+    from rich.console import Console
+
+    with Console(stderr=True).status(f"solving {args.file.name}: checking") as status:
+        return api.solve(
+            *solve_args, progress=lambda doing: status.update(f"solving {args.file.name}: {doing}")
+        )
+
+
+def run_render(args: argparse.Namespace) -> int:
     from fabhal.load import InputError, display_name
     from fabhal.report import solution as report
 
     if _unknown_format(args.output):
         return EXIT_USAGE
     try:
-        result = api.solve(args.file, dict(args.define), args.seed, args.time_limit, not args.no_gravity)
+        result = _solve_with_status(args)
     except InputError as exc:
         _print_diagnostics(exc.diagnostics, {})
         return EXIT_USAGE

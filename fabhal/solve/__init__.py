@@ -50,6 +50,11 @@ class SolveOptions:
     seed: int = 0
     time_limit: float | None = None  # seconds
     gravity: bool = True
+    progress: Callable[[str], None] | None = None  # told what the solver is doing, for a status line
+
+    def report(self, doing: str) -> None:
+        if self.progress is not None:
+            self.progress(doing)
 
 
 @dataclass(frozen=True)
@@ -96,6 +101,7 @@ def solve(model: Model, options: SolveOptions, loop_start: Array | None = None) 
         remaining = None if options.time_limit is None else options.time_limit - (time.monotonic() - started)
         if remaining is not None and remaining <= 0:
             break
+        options.report(f"it fell apart; trying again from seed {options.seed + k}")
         retry = _solve_once(model, replace(options, seed=options.seed + k, time_limit=remaining), None)
         if not retry.falls:
             fall = first.falls[0]
@@ -142,6 +148,7 @@ def _solve_once(model: Model, options: SolveOptions, loop_start: Array | None) -
 
     free = np.array([i for i in range(len(model.variables)) if i not in model.pinned], dtype=int)
     step1 = Problem(model, free, x0.copy(), spacing, deadline)
+    options.report("step 1: bringing the target to its frame")
     v, late = fit_target(step1, goal, _distinct([s[free] for s in starts]))
     x = step1.full(v)
     if late:
@@ -155,6 +162,7 @@ def _solve_once(model: Model, options: SolveOptions, loop_start: Array | None) -
         movable = np.array([i for i in free if i not in held], dtype=int)
         step2 = Problem(model, movable, x.copy(), spacing, deadline)
         energy = with_friction(model, potential(model, masses, centres), masses, x)
+        options.report("step 2: settling under gravity")
         if len(movable):
             x = _settle_stably(step2, energy, x, rng)
         equilibrium, at_bound, falls = _verify(step2, energy, x, masses)

@@ -89,3 +89,17 @@ def test_define_and_no_gravity_and_missing_file(tmp_path: Path) -> None:
     # 0.5 mm of the position: three rigid S-hooks cannot reach the last 0.3 mm
     assert target["rotation_error_deg"] < 0.01 and target["position_error_mm"] < 0.5
     assert fabhal("solve", str(tmp_path / "none.fhl")).returncode == 2
+
+
+def test_the_solver_says_what_it_is_doing_for_the_status_line() -> None:
+    from fabhal import api
+
+    heard: list[str] = []
+    result = api.solve(REPO / "programs" / "mug_hanger.fhl", progress=heard.append)
+    assert result.status == "solved"
+    assert heard == ["step 1: bringing the target to its frame", "step 2: settling under gravity"]
+
+
+def test_no_status_line_when_stderr_is_not_a_terminal() -> None:
+    run = fabhal("solve", "programs/demo.fhl")
+    assert "solving demo.fhl" not in run.stderr and "\x1b" not in run.stderr
