@@ -72,10 +72,13 @@ examples:
   fabhal solve -o result.json programs/demo.fhl     ... or in a file
   fabhal solve --no-gravity my_hack.fhl             only step 1: closest to the target
   fabhal solve -D n=3 --seed 7 family.fhl           bind a param; another random start
+  fabhal solve programs/mug_hanger.fhl --render mug.png   ... and draw it (see `render`)
 
 Step 1 moves the parts (through the connections' degrees of freedom) to bring
 the target closest to its requested frame; step 2 lets the assembly settle
-under gravity from there. If a connection would slide off an open end, the
+under gravity from there (clips, `fixed` connections and things standing on a
+surface hold; a part slides along a rod only where gravity beats friction).
+If a connection would slide off an open end from every start tried, the
 status is `falls_apart` and the message names the connection.
 
 exit status: 0 solved, 1 falls apart / infeasible / errors in the program,
