@@ -148,7 +148,8 @@ class Model:
     def closure_errors(self, x: Array, frames: Array | None = None) -> Array:
         """(n_closures, 4, 4): inv(world(a) @ offset) @ world(b), the identity when a loop closes."""
         if frames is None:
-            fwd = self.forward(x)
+            # with the twists: solvers ask for the Jacobian at the same point next, and reuse them
+            fwd = self.forward(x, with_twists=True)
             local, frames = fwd.local, fwd.frames
         else:
             local = self.layout.local_frames(x)
