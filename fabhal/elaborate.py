@@ -88,6 +88,8 @@ class _Scope:
     assemblies: dict[str, dict[str, Endpoint]] = field(default_factory=dict)  # instance -> ports
     ports: dict[str, Endpoint] = field(default_factory=dict)
     declared_at: dict[str, Span] = field(default_factory=dict)
+    # names whose declaration failed (already reported): their uses say nothing more
+    broken: set[str] = field(default_factory=set)
 
     def numbers(self) -> dict[str, Value]:
         return {k: v for k, v in self.values.items() if not isinstance(v, str)}
@@ -263,6 +265,22 @@ class _Elaborator:
         key = self._key(lvalue, scope)
         if key in scope.declared_at:
             raise FabhalError([_duplicate(key, lvalue.span, scope.declared_at[key])])
+        try:
+            self._declare(key, lvalue, call, scope, placement, environment)
+        except FabhalError:
+            scope.declared_at[key] = lvalue.span
+            scope.broken.add(key)
+            raise
+
+    def _declare(
+        self,
+        key: str,
+        lvalue: ast.Lvalue,
+        call: ast.Call,
+        scope: _Scope,
+        placement: ast.Placement | None,
+        environment: bool,
+    ) -> None:
         type_name = _callee(call, scope)
         args = {a.name: (self._argument(a, scope), a.span) for a in call.args}
         if type_name in self.assembly_defs and type_name not in self.library.parts:
@@ -354,7 +372,7 @@ class _Elaborator:
                                 "E211",
                                 f"{p.name} == {bound:g}, but `{definition.name}` allows {low:g} .. {high:g}",
                                 call.span,
-                                None,
+                                f"give `{p.name}` a value from {low:g} to {high:g}",
                             )
                         ]
                     )
@@ -375,7 +393,7 @@ class _Elaborator:
                 found.append(self._endpoint(ref, scope))
             except FabhalError as exc:
                 problems.extend(exc.diagnostics)
-        if problems:
+        if len(found) < 2:
             raise FabhalError(problems)
         return found[0], found[1]
 
@@ -405,6 +423,8 @@ class _Elaborator:
             help_text = f"did you mean `{suggestion}`?" if suggestion else f"its ports: {listed}"
             what = f"no port `{ref.primitive}`" if ref.primitive else "ports; name one"
             raise FabhalError([error("E304", f"sub-assembly `{key}` has {what}", ref.span, help_text)])
+        if key in scope.broken:
+            raise FabhalError([])  # its declaration's error already says what is wrong
         if key not in scope.parts:
             raise FabhalError([self._unknown_name(key, ref.base.span, scope)])
         instance = scope.parts[key]

@@ -286,7 +286,7 @@ def _bind_arguments(
                     "E211",
                     f"{name} == {value:g}, but `{part_type.name}` allows {low:g} .. {high:g}",
                     arg_span,
-                    None,
+                    f"give `{name}` a value from {low:g} to {high:g}",
                 )
             )
             continue

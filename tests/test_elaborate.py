@@ -114,6 +114,9 @@ MISTAKES = {
     "used_before_declared": "environment rod = Rod(length: 500, radius: 2) at (0, 0, 200)\n"
     "connect s1.hook2 -- rod\ns1 = DoubleHook()\n",
     "bad_part_argument": "tb = ParamTurnbuckle(extension: 60)\n",
+    # one mistake in a declaration is one error, not one more at every later use of the name
+    "broken_declaration_used_later": "environment rod = Rod(length: 500, radius: 2) at (0, 0, 200)\n"
+    "tb = ParamTurnbuckle(extension: 60)\nconnect tb.hook1 -- rod\ntarget tb.hook2 at (0, 0, 100)\n",
     "unknown_part_argument": "tb = ParamTurnbuckle(extention: 10)\n",
     "param_without_value": "param n in 1 .. 4\n",
     "param_outside_domain": "param n in 1 .. 4 = 7\n",
