@@ -107,6 +107,10 @@ def _view(scene: Scene, view: str, width: int, height: int) -> Any:
     draw = ImageDraw.Draw(picture)
     _target_axes(draw, scene, camera)
     _labels(draw, solid, owner, camera)
+    title_box = draw.textbbox((12, 10), VIEW_TITLES[view], font=_font(15))
+    draw.rectangle(
+        [title_box[0] - 4, title_box[1] - 3, title_box[2] + 4, title_box[3] + 3], fill=(255, 255, 255)
+    )
     draw.text((12, 10), VIEW_TITLES[view], fill=(90, 90, 90), font=_font(15))
     return picture
 
