@@ -303,17 +303,20 @@ _STEP = 1e-6  # central differences of one connector formula: error ~1e-12 relat
 def _chain_layout(model: Model) -> ChainLayout:
     sides = [side for joint in model.joints for side in (joint.a, joint.b)]
     n_dofs, n_parts = len(model.variables), len(model.parts)
-    by_variant: dict[str, list[int]] = {}
+    # variants that share a formula (a hook and a ring are both arcs) and a DoF count
+    # are evaluated together: every group is a handful of numpy calls
+    by_formula: dict[tuple[FrameFormula, int], list[int]] = {}
     for s, side in enumerate(sides):
-        by_variant.setdefault(side.primitive.variant, []).append(s)
+        key = (FRAME_FORMULAS[side.primitive.variant], len(side.dof_indices))
+        by_formula.setdefault(key, []).append(s)
     groups = []
-    for variant, members in by_variant.items():
+    for (formula, _), members in by_formula.items():
         primitives = [sides[s].primitive for s in members]
         names = set.intersection(*(set(p.params) for p in primitives))
         groups.append(
             SideGroup(
                 np.array(members),
-                FRAME_FORMULAS[variant],
+                formula,
                 {name: np.array([p.params[name] for p in primitives]) for name in sorted(names)},
                 np.stack([p.base_frame() for p in primitives]),
                 np.array([sides[s].dof_indices for s in members], dtype=int).reshape(len(members), -1),

@@ -308,9 +308,15 @@ def _tube_centerline(p: Mapping[str, float | Array], x: Array) -> Array:
 
 
 def _arc(p: Mapping[str, float | Array], x: Array) -> Array:
+    # T(0, -rho sin theta, -rho cos theta) @ Rx(-theta), written out: the hottest formula
     rho = p["arc_radius"] - p["thickness"]
     theta = np.radians(x[..., 0])
-    return translation(0.0, -rho * np.sin(theta), -rho * np.cos(theta)) @ rot_x(-x[..., 0])
+    c, s = np.cos(theta), np.sin(theta)
+    out = np.zeros((*theta.shape, 4, 4))
+    out[..., 0, 0] = out[..., 3, 3] = 1.0
+    out[..., 1, 1], out[..., 1, 2], out[..., 1, 3] = c, s, -rho * s
+    out[..., 2, 1], out[..., 2, 2], out[..., 2, 3] = -s, c, -rho * c
+    return out
 
 
 def _arc_flex(p: Mapping[str, float | Array], x: Array) -> Array:
