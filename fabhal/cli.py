@@ -342,16 +342,12 @@ def run_check(args: argparse.Namespace) -> int:
 
 
 def run_solve(args: argparse.Namespace) -> int:
-    from fabhal.load import InputError, display_name
+    from fabhal.load import display_name
     from fabhal.report import solution as report
 
-    if _unknown_format(args.render):
-        return EXIT_USAGE
-    try:
-        result = _solve_with_status(args)
-    except InputError as exc:
-        _print_diagnostics(exc.diagnostics, {})
-        return EXIT_USAGE
+    result = _solved(args, args.render)
+    if isinstance(result, int):
+        return result
     name = display_name(args.file.resolve())
     data = report.to_dict(result, name)
     if args.output is not None:
@@ -367,8 +363,27 @@ def run_solve(args: argparse.Namespace) -> int:
         console = _console()
         for renderable in report.renderables(result, name):
             console.print(renderable)
-    if args.render is not None:
-        written = _render(result, args.render, args, data)
+    return _finish(result, args.render, args, data)
+
+
+def _solved(args: argparse.Namespace, render_to: Path | None) -> Any:
+    """Refuse an unknown drawing format before any work, then solve: the
+    result, or an exit code when the file cannot be read."""
+    from fabhal.load import InputError
+
+    if _unknown_format(render_to):
+        return EXIT_USAGE
+    try:
+        return _solve_with_status(args)
+    except InputError as exc:
+        _print_diagnostics(exc.diagnostics, {})
+        return EXIT_USAGE
+
+
+def _finish(result: Any, render_to: Path | None, args: argparse.Namespace, summary: dict[str, Any]) -> int:
+    """Draw the result if asked; the exit code of solve and render."""
+    if render_to is not None:
+        written = _render(result, render_to, args, summary)
         if written is not None:
             return written
     return EXIT_OK if result.status == "solved" else EXIT_DIAGNOSTICS
@@ -391,21 +406,14 @@ def _solve_with_status(args: argparse.Namespace) -> Any:
 
 
 def run_render(args: argparse.Namespace) -> int:
-    from fabhal.load import InputError, display_name
+    from fabhal.load import display_name
     from fabhal.report import solution as report
 
-    if _unknown_format(args.output):
-        return EXIT_USAGE
-    try:
-        result = _solve_with_status(args)
-    except InputError as exc:
-        _print_diagnostics(exc.diagnostics, {})
-        return EXIT_USAGE
+    result = _solved(args, args.output)
+    if isinstance(result, int):
+        return result
     _print_diagnostics(result.diagnostics, result.check.sources)
-    written = _render(result, args.output, args, report.to_dict(result, display_name(args.file.resolve())))
-    if written is not None:
-        return written
-    return EXIT_OK if result.status == "solved" else EXIT_DIAGNOSTICS
+    return _finish(result, args.output, args, report.to_dict(result, display_name(args.file.resolve())))
 
 
 _NOT_SOLVED = {"error": "the program has errors", "infeasible": "a loop of the design cannot close"}

@@ -265,39 +265,26 @@ class _Elaborator:
         key = self._key(lvalue, scope)
         if key in scope.declared_at:
             raise FabhalError([_duplicate(key, lvalue.span, scope.declared_at[key])])
-        try:
-            self._declare(key, lvalue, call, scope, placement, environment)
-        except FabhalError:
-            scope.declared_at[key] = lvalue.span
-            scope.broken.add(key)
-            raise
-
-    def _declare(
-        self,
-        key: str,
-        lvalue: ast.Lvalue,
-        call: ast.Call,
-        scope: _Scope,
-        placement: ast.Placement | None,
-        environment: bool,
-    ) -> None:
-        type_name = _callee(call, scope)
-        args = {a.name: (self._argument(a, scope), a.span) for a in call.args}
-        if type_name in self.assembly_defs and type_name not in self.library.parts:
-            scope.declared_at[key] = lvalue.span
-            scope.assemblies[key] = self._assembly(
-                self.assembly_defs[type_name], scope.prefix + key, args, call
-            )
-            return
-        spec = self._spec(type_name, key, args, call, environment)
-        position = _vector(placement.position if placement else None, scope)
-        rotation = _vector(placement.rotation if placement else None, scope)
-        instance = PartInstance(
-            scope.prefix + key, type_name, spec, environment, position, rotation, lvalue.span
-        )
         scope.declared_at[key] = lvalue.span
-        scope.parts[key] = instance
-        self.parts.append(instance)
+        try:
+            type_name = _callee(call, scope)
+            args = {a.name: (self._argument(a, scope), a.span) for a in call.args}
+            if type_name in self.assembly_defs and type_name not in self.library.parts:
+                scope.assemblies[key] = self._assembly(
+                    self.assembly_defs[type_name], scope.prefix + key, args, call
+                )
+                return
+            spec = self._spec(type_name, key, args, call, environment)
+            position = _vector(placement.position if placement else None, scope)
+            rotation = _vector(placement.rotation if placement else None, scope)
+            instance = PartInstance(
+                scope.prefix + key, type_name, spec, environment, position, rotation, lvalue.span
+            )
+            scope.parts[key] = instance
+            self.parts.append(instance)
+        except FabhalError:
+            scope.broken.add(key)  # the error says what is wrong; its later uses stay quiet
+            raise
 
     def _argument(self, argument: ast.Argument, scope: _Scope) -> Value | str:
         """A number, or a part type passed by name to a sub-assembly (`ring: RingM`)."""
