@@ -20,7 +20,7 @@ from functools import cached_property
 
 import numpy as np
 
-from fabhal.elaborate import Connection, FlatProgram, PartInstance
+from fabhal.elaborate import Connection, Endpoint, FlatProgram, PartInstance
 from fabhal.kinematics.frames import Array, frame_matrix, invert
 from fabhal.primitives import FRAME_FORMULAS, Dof, FrameFormula, Primitive, alignment_offset
 
@@ -47,6 +47,10 @@ class Joint:
     offset: Array  # world(a connector) @ offset == world(b connector)
     connection: Connection
     held: bool  # DoFs stay put when the hack settles (`fixed`, a clip's grip, resting on a surface)
+
+    def endpoint(self, side: Side) -> Endpoint:
+        """The program's `part.primitive` for one side of this joint."""
+        return self.connection.a if side is self.a else self.connection.b
 
 
 @dataclass(frozen=True)
@@ -145,24 +149,19 @@ class Model:
         own = on_part @ d_local @ invert(on_part @ local[layout.dof_side])
         return Forward(frames, local, layout.tree_sign[:, None, None] * own, own)
 
-    def closure_errors(self, x: Array, frames: Array | None = None) -> Array:
+    def closure_errors(self, x: Array) -> Array:
         """(n_closures, 4, 4): inv(world(a) @ offset) @ world(b), the identity when a loop closes."""
-        if frames is None:
-            # with the twists: solvers ask for the Jacobian at the same point next, and reuse them
-            fwd = self.forward(x, with_twists=True)
-            local, frames = fwd.local, fwd.frames
-        else:
-            local = self.layout.local_frames(x)
-        world_a, world_b = self.layout.closure_worlds(local, frames)
+        # with the twists: solvers ask for the Jacobian at the same point next, and reuse them
+        fwd = self.forward(x, with_twists=True)
+        world_a, world_b = self.layout.closure_worlds(fwd.local, fwd.frames)
         return invert(world_a) @ world_b
 
-    def closure_residuals(self, x: Array, frames: Array | None = None) -> Array:
+    def closure_residuals(self, x: Array) -> Array:
         """(n_closures * 12,): per loop the position error (mm) and the rotation
         error E_R - I (x ROTATION_LENGTH_MM), in the first connector's frame.
         Zero exactly when every loop closes; linear in the error frame, so its
         Jacobian is exact."""
-        errors = self.closure_errors(x, frames)
-        return _residual_of(errors).ravel()
+        return _residual_of(self.closure_errors(x)).ravel()
 
     def closure_jacobian(self, x: Array) -> Array:
         """(n_closures * 12, n_dofs) exact derivative of `closure_residuals`."""
@@ -196,6 +195,16 @@ class Model:
     @cached_property
     def layout(self) -> ChainLayout:
         return _chain_layout(self)
+
+    def placed_sides(self, edge: TreeEdge) -> tuple[Side, Side]:
+        """(parent, child) of a tree edge: the side already placed, then the one it places."""
+        joint = self.joints[edge.joint]
+        return (joint.a, joint.b) if edge.parent_side == "a" else (joint.b, joint.a)
+
+    @cached_property
+    def tree_child(self) -> dict[int, int]:
+        """For each tree joint, the part it hangs in place (its child side's part)."""
+        return {edge.joint: self.placed_sides(edge)[1].part for edge in self.tree}
 
     @cached_property
     def subtrees(self) -> dict[int, set[int]]:
@@ -334,7 +343,7 @@ def _chain_layout(model: Model) -> ChainLayout:
     subtrees = model.subtrees
     for edge in model.tree:
         joint = model.joints[edge.joint]
-        parent, child = (joint.a, joint.b) if edge.parent_side == "a" else (joint.b, joint.a)
+        parent, child = model.placed_sides(edge)
         tree_sign[list(parent.dof_indices)] = 1.0
         tree_sign[list(child.dof_indices)] = -1.0
         for i in joint.a.dof_indices + joint.b.dof_indices:
@@ -368,8 +377,7 @@ def _subtrees(model: Model) -> dict[int, set[int]]:
     """For each part, itself and every part hung below it in the tree."""
     children: dict[int, list[int]] = {}
     for edge in model.tree:
-        joint = model.joints[edge.joint]
-        parent, child = (joint.a, joint.b) if edge.parent_side == "a" else (joint.b, joint.a)
+        parent, child = model.placed_sides(edge)
         children.setdefault(parent.part, []).append(child.part)
     subtrees: dict[int, set[int]] = {}
     for part in range(len(model.parts)):
@@ -387,7 +395,7 @@ def _tree_levels(model: Model) -> tuple[TreeLevel, ...]:
     levels: dict[int, list[tuple[int, int, int, int, Array]]] = {}
     for edge in model.tree:  # parents come before children
         joint = model.joints[edge.joint]
-        parent, child = (joint.a, joint.b) if edge.parent_side == "a" else (joint.b, joint.a)
+        parent, child = model.placed_sides(edge)
         offset = joint.offset if edge.parent_side == "a" else joint.offset.T
         parent_side = 2 * joint.index + (0 if edge.parent_side == "a" else 1)
         depth[child.part] = depth[parent.part] + 1

@@ -117,7 +117,7 @@ def test_batched_frames_match_one_connection_at_a_time() -> None:
     frames = model.part_frames(x)
     for edge in model.tree:
         joint = model.joints[edge.joint]
-        parent, child = (joint.a, joint.b) if edge.parent_side == "a" else (joint.b, joint.a)
+        parent, child = model.placed_sides(edge)
         offset = joint.offset if edge.parent_side == "a" else joint.offset.T
         parent_connector = model.connector_frame(parent, x, frames)
         child_local = child.primitive.connector_frames(x[list(child.dof_indices)])

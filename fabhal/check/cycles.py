@@ -54,8 +54,7 @@ def find_loops(model: Model) -> list[Loop]:
     """One loop per closing joint: its tree paths to the common ancestor."""
     parent: dict[int, tuple[int, int]] = {}  # child part -> (parent part, joint)
     for edge in model.tree:
-        joint = model.joints[edge.joint]
-        up, down = (joint.a, joint.b) if edge.parent_side == "a" else (joint.b, joint.a)
+        up, down = model.placed_sides(edge)
         parent[down.part] = (_node(model, up.part), edge.joint)
 
     def path(part: int) -> list[tuple[int, int]]:

@@ -156,12 +156,9 @@ def hanging_lines(model: Model) -> list[tuple[int, str]]:
     below: dict[int, list[tuple[int, str]]] = {}  # part -> (child part, line), in program order
     for edge in model.tree:
         joint = model.joints[edge.joint]
-        (up, down), (parent, child) = (
-            ((joint.connection.a, joint.connection.b), (joint.a.part, joint.b.part))
-            if edge.parent_side == "a"
-            else ((joint.connection.b, joint.connection.a), (joint.b.part, joint.a.part))
-        )
-        below.setdefault(parent, []).append((child, f"{down}  <-  {up}"))
+        parent, child = model.placed_sides(edge)
+        line = f"{joint.endpoint(child)}  <-  {joint.endpoint(parent)}"
+        below.setdefault(parent.part, []).append((child.part, line))
     lines: list[tuple[int, str]] = []
 
     def visit(part: int, depth: int) -> None:

@@ -305,10 +305,8 @@ def _verify(
 
 def _falling_part(model: Model, joint: Joint, side: str) -> str:
     """The part that comes off: the side of the connection farther from the environment."""
-    for edge in model.tree:
-        if edge.joint == joint.index:
-            child = joint.b if edge.parent_side == "a" else joint.a
-            return model.parts[child.part].name
+    if joint.index in model.tree_child:
+        return model.parts[model.tree_child[joint.index]].name
     other = joint.b if side == "a" else joint.a
     return model.parts[other.part].name
 

@@ -265,11 +265,8 @@ def _carried_weight(model: Model, joint: int, weights: Array) -> float:
     """The weight a connection carries (joules per mm): what hangs below it in
     the tree; a connection that closes a loop shares the load, taken as half of
     what hangs below the heavier of its two parts."""
-    for edge in model.tree:
-        if edge.joint == joint:
-            j = model.joints[joint]
-            child = j.b.part if edge.parent_side == "a" else j.a.part
-            return float(weights[list(model.subtrees[child])].sum())
+    if joint in model.tree_child:
+        return float(weights[list(model.subtrees[model.tree_child[joint]])].sum())
     j = model.joints[joint]
     below = [float(weights[list(model.subtrees[p])].sum()) for p in (j.a.part, j.b.part)]
     return 0.5 * max(below)
