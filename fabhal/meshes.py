@@ -185,8 +185,8 @@ def _mesh_measures(spec: PartSpec) -> Measures:
 
     from fabhal import resources
 
-    digest = hashlib.sha256(Path(__file__).read_bytes())
-    digest.update(spec.mesh.read_bytes() if spec.mesh is not None else repr(spec.primitives).encode())
+    digest = hashlib.sha256(_file_digest(Path(__file__)))
+    digest.update(_file_digest(spec.mesh) if spec.mesh is not None else repr(spec.primitives).encode())
     directory = resources.cache_dir()
     path = directory / f"mesh-{digest.hexdigest()[:24]}.json" if directory is not None else None
     if path is not None and path.is_file():
@@ -207,3 +207,12 @@ def _mesh_measures(spec: PartSpec) -> Measures:
         except OSError:
             pass
     return measures  # type: ignore[return-value]
+
+
+@lru_cache(maxsize=256)
+def _file_digest(path: Path) -> bytes:
+    """SHA-256 of a file, once per process: every solve attempt asks again for
+    each part's mass, and the largest meshes are megabytes."""
+    import hashlib
+
+    return hashlib.sha256(path.read_bytes()).digest()

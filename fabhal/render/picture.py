@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import io
 from dataclasses import dataclass
+from functools import cache
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -75,7 +76,8 @@ def picture_png(scene: Scene, summary: dict[str, Any], options: Any) -> bytes:
     from PIL import Image, ImageDraw
 
     width, height = options.size
-    views = [_view(scene, view, width, height) for view in options.views]
+    focus = _focus_points(scene)  # every view frames the same points
+    views = [_view(scene, focus, view, width, height) for view in options.views]
     canvas = Image.new("RGB", (width * len(views), height + HEADER), BACKGROUND)
     for k, view in enumerate(views):
         canvas.paste(view, (k * width, HEADER))
@@ -92,10 +94,10 @@ def _focus_points(scene: Scene) -> Array:
     return np.concatenate(points)
 
 
-def _view(scene: Scene, view: str, width: int, height: int) -> Any:
+def _view(scene: Scene, focus: Array, view: str, width: int, height: int) -> Any:
     from PIL import Image, ImageDraw
 
-    camera = camera_for(view, _focus_points(scene), width, height)
+    camera = camera_for(view, focus, width, height)
     solid = [item for item in scene.items if item.opacity >= 1.0]
     ghosts = [item for item in scene.items if item.opacity < 1.0]
     image, owner = _shade(solid, camera, width, height)
@@ -105,7 +107,7 @@ def _view(scene: Scene, view: str, width: int, height: int) -> Any:
         image[covered] = (1 - ghost.opacity) * image[covered] + ghost.opacity * ghost_image[covered]
     picture = Image.fromarray(np.clip(image, 0, 255).astype(np.uint8))
     draw = ImageDraw.Draw(picture)
-    _target_axes(draw, scene, camera)
+    _target_axes(draw, scene, camera, focus)
     _labels(draw, solid, owner, camera)
     title_box = draw.textbbox((12, 10), VIEW_TITLES[view], font=_font(15))
     draw.rectangle(
@@ -155,9 +157,9 @@ def _normals(vertices: Array, faces: np.ndarray) -> Array:
     return normal / np.where(length > 0, length, 1.0)
 
 
-def _target_axes(draw: ImageDraw.ImageDraw, scene: Scene, camera: Camera) -> None:
+def _target_axes(draw: ImageDraw.ImageDraw, scene: Scene, camera: Camera, focus: Array) -> None:
     """Requested frame as long axes, achieved as short ones, a dashed line between."""
-    size = AXIS_MM_FRACTION * max(np.ptp(_focus_points(scene), axis=0).max(), 1.0)
+    size = AXIS_MM_FRACTION * max(np.ptp(focus, axis=0).max(), 1.0)
     for frame, length, width in ((scene.requested, size, 3), (scene.achieved, size * 0.6, 2)):
         origin = camera.project(frame[None, :3, 3])[0, :2]
         for axis, color in enumerate(((220, 40, 40), (40, 160, 40), (40, 80, 220))):
@@ -224,6 +226,7 @@ def _header(draw: ImageDraw.ImageDraw, scene: Scene, summary: dict[str, Any], wi
         x += int(draw.textlength(text, font=_font(14))) + 18
 
 
+@cache
 def _font(size: int) -> Any:
     from PIL import ImageFont
 
