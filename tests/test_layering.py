@@ -16,6 +16,7 @@ ORDER = [
     "diagnostics",
     "resources",
     "kinematics",
+    "optimize",
     "primitives",
     "syntax",
     "load",

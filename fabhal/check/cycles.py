@@ -18,6 +18,7 @@ from fabhal.check.context import CheckContext
 from fabhal.diagnostics import Diagnostic, error
 from fabhal.kinematics.frames import Array, frame_matrix
 from fabhal.model import Model, Side
+from fabhal.optimize import least_squares_objective, minimize
 
 ENVIRONMENT = -1  # all environment parts act as one rigid link
 MAX_STARTS = 16
@@ -169,17 +170,15 @@ def _part_range(key: tuple, entry: Side, exit_: Side, same: bool) -> tuple[float
 
 
 def polygon_feasible(links: list[Link]) -> bool:
-    """The quick reject as a linear program: is there a length e_k in each link's
-    range with e_k <= sum of the others for every k? (scipy's HiGHS)"""
-    from scipy.optimize import linprog
-
-    n = len(links)
-    if n < 2:
+    """The quick reject: can each link take a length e_k in its range with
+    e_k <= the sum of the others for every k? Exactly when no link's shortest
+    length exceeds the longest the others reach together: take every link at
+    its longest; at most one link can then be longer than the rest together,
+    and shortening it to their sum (not below its shortest) closes the polygon."""
+    if len(links) < 2:
         return True
-    a_ub = 2.0 * np.eye(n) - np.ones((n, n))
-    bounds = [(max(link.low - _SLACK_MM, 0.0), link.high + _SLACK_MM) for link in links]
-    result = linprog(np.zeros(n), A_ub=a_ub, b_ub=np.zeros(n), bounds=bounds, method="highs")
-    return bool(result.status == 0)
+    total_high = sum(link.high + _SLACK_MM for link in links)
+    return all(max(link.low - _SLACK_MM, 0.0) <= total_high - (link.high + _SLACK_MM) for link in links)
 
 
 # ---------------------------------------------------------------- closure solve
@@ -188,8 +187,6 @@ def polygon_feasible(links: list[Link]) -> bool:
 def close_loops(model: Model, seed: int = 0, starts: int = MAX_STARTS, x0: Array | None = None) -> LoopReport:
     """Find DoFs that close every loop: least squares from `x0` (the defaults),
     then from seeded random starts; stops at the first start that closes them all."""
-    from scipy.optimize import least_squares
-
     x0 = model.x_default() if x0 is None else x0
     if not model.closures:
         return LoopReport(x0, True, 0.0, 0.0)
@@ -204,25 +201,22 @@ def close_loops(model: Model, seed: int = 0, starts: int = MAX_STARTS, x0: Array
         x[free] = values
         return x
 
-    def residual(values: Array) -> Array:
-        return model.closure_residuals(full(values))
-
-    def jacobian(values: Array) -> Array:
-        return model.closure_jacobian(full(values))[:, free]
+    def residual_and_jacobian(values: Array) -> tuple[Array, Array]:
+        x = full(values)
+        return model.closure_residuals(x), model.closure_jacobian(x)[:, free]
 
     best_x, best_cost = x0, np.inf
     for attempt in range(starts):
         start = x0[free] if attempt == 0 else _random_start(rng, low[free], high[free])
-        fit = least_squares(
-            residual,
+        fit = minimize(
+            least_squares_objective(residual_and_jacobian),
             start,
-            jac=jacobian,
-            bounds=(low[free], high[free]),
-            method="trf",
-            max_nfev=200,
-            xtol=1e-12,
+            low[free],
+            high[free],
+            max_evaluations=200,
+            stop_below=0.5 * (0.01 * CLOSED_MM) ** 2,
         )
-        cost = float(np.abs(fit.fun).max())
+        cost = float(np.abs(residual_and_jacobian(fit.x)[0]).max())
         if cost < best_cost:
             best_cost = cost
             best_x = x0.copy()

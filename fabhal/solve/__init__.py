@@ -43,6 +43,8 @@ BOUND_TOLERANCE = 1e-6  # a DoF within this fraction of its range from an end re
 # KKT residual: the unbalanced generalised force per mm of motion, as a fraction of
 # the assembly's total weight; 1e-3 = 0.1 % of the weight left unbalanced
 EQUILIBRIUM_TOLERANCE = 1e-3
+# settling stops at a tenth of that: the verification then has room for rounding
+SETTLE_TOLERANCE = 0.1 * EQUILIBRIUM_TOLERANCE
 
 
 @dataclass(frozen=True)
@@ -162,14 +164,15 @@ def _solve_once(model: Model, options: SolveOptions, loop_start: Array | None) -
         movable = np.array([i for i in free if i not in held], dtype=int)
         step2 = Problem(model, movable, x.copy(), spacing, deadline)
         energy = with_friction(model, potential(model, masses, centres), masses, x)
+        at_rest = SETTLE_TOLERANCE * _weight(masses)
         options.report("step 2: settling under gravity")
         if len(movable):
-            x = _settle_stably(step2, energy, x, rng)
+            x = _settle_stably(step2, energy, x, rng, at_rest)
         equilibrium, at_bound, falls = _verify(step2, energy, x, masses)
         for _ in range(POLISH_ROUNDS):  # a long loop's flat valley may need more iterations
             if equilibrium <= EQUILIBRIUM_TOLERANCE or not len(movable) or step2.out_of_time():
                 break
-            x = step2.full(settle(step2, energy, x[movable]))
+            x = step2.full(settle(step2, energy, x[movable], at_rest))
             equilibrium, at_bound, falls = _verify(step2, energy, x, masses)
         if equilibrium > EQUILIBRIUM_TOLERANCE:
             notes.append(
@@ -213,12 +216,16 @@ def _distinct(starts: list[Array]) -> list[Array]:
 
 
 def _settle_stably(
-    problem: Problem, energy: Callable[[Array], tuple[float, Array]], x: Array, rng: np.random.Generator
+    problem: Problem,
+    energy: Callable[[Array], tuple[float, Array]],
+    x: Array,
+    rng: np.random.Generator,
+    at_rest: float,
 ) -> Array:
     """Settle, then settle again from nudged copies; keep the lowest energy."""
     model, free = problem.model, problem.free
     low, high = problem.bounds()
-    best = problem.full(settle(problem, energy, x[free]))
+    best = problem.full(settle(problem, energy, x[free], at_rest))
     best_energy = energy(best)[0]
     fraction = np.array([not v.dof.periodic and v.dof.high <= 1.0 for v in model.variables])[free]
     size = np.where(fraction, NUDGE_FRACTION, NUDGE_DEGREES)
@@ -226,7 +233,7 @@ def _settle_stably(
         if problem.out_of_time():
             break
         start = np.clip(best[free] + rng.uniform(-size, size), low, high)
-        candidate = problem.full(settle(problem, energy, start))
+        candidate = problem.full(settle(problem, energy, start, at_rest))
         value = energy(candidate)[0]
         closed = not model.closures or closure_residual_mm(model, candidate) < 1e-6
         if closed and value < best_energy - 1e-12:
@@ -263,7 +270,7 @@ def _verify(
     open connection comes apart. Forces are per mm of motion, over the total weight."""
     model = problem.model
     free = problem.free
-    weight = max(float(masses.sum()) / 1000.0 * 9.81 / 1000.0, 1e-12)  # joules per mm of height
+    weight = _weight(masses)
     per_mm = mm_per_unit(model)[free]
     gradient = energy(x)[1][free] / per_mm / weight
     low, high = model.bounds()
@@ -301,6 +308,11 @@ def _verify(
             falls.append(Fall(joint.index, i, end, _falling_part(model, joint, model.variables[i].side)))
     at_bound = tuple(sorted(int(free[k]) for k in resting))
     return stationarity, at_bound, tuple(falls)
+
+
+def _weight(masses: Array) -> float:
+    """The assembly's weight in joules per mm of height (masses in grams)."""
+    return max(float(masses.sum()) / 1000.0 * 9.81 / 1000.0, 1e-12)
 
 
 def _falling_part(model: Model, joint: Joint, side: str) -> str:

@@ -3,8 +3,9 @@
 Step 1 (fit): minimise the target cost subject to loop closure, spacing and
 the DoFs' bounds. Step 2 (settle): from step 1, with the target free, minimise
 the potential energy under the same constraints, holding the DoFs of `fixed`
-connections and clips. Both use analytic gradients: least squares (trf) or
-L-BFGS-B when there are no constraints besides bounds, SLSQP when there are.
+connections and clips. Both are solved by fabhal.optimize with exact
+Jacobians, in millimetres of motion (`mm_per_unit`): Gauss-Newton for the fit,
+BFGS for the energy, every iterate on the closed loops.
 
 Loop closure is imposed with 6 equations per loop: the position error and the
 antisymmetric part of the rotation error (zero at a closed loop; the
@@ -22,6 +23,7 @@ import numpy as np
 
 from fabhal.kinematics.frames import Array
 from fabhal.model import Model
+from fabhal.optimize import Linear, Objective, least_squares_objective, minimize
 from fabhal.solve import target as target_mod
 from fabhal.solve.spacing import Spacing, spacing_jacobian, spacing_values
 
@@ -35,14 +37,10 @@ FRICTION_SMOOTHING_MM = 0.5
 CLOSED_MM = 1e-6
 FIT_EVALUATIONS = 200  # for the most promising start of step 1 without loops
 FIT_PROBE_EVALUATIONS = 60  # for each start first
-FIT_FTOL = 1e-8
+FIT_FTOL = 1e-8  # relative decrease of the target cost that ends a fit
 # a start whose target residual (mm, and degrees counted as mm) is this close needs no other start
 GOOD_FIT = 0.5
-SETTLE_ITERATIONS = 300  # SLSQP iterations of one settle with loops
-SLSQP_FTOL = 1e-12  # joules: looser (1e-9, 1e-7) saved little time and left some settles short of rest
-NATURAL_WEIGHT = (
-    0.05  # see fit_target: 20 mm of strain away from a DoF's middle costs like 1 mm of target error
-)
+SETTLE_ITERATIONS = 400  # of one settle; each iteration is one to a few energy evaluations
 
 # rows (per loop) of the 12 closure residuals kept as the 6 constraint equations:
 # position (3) and vee((R - R^T) / 2) from the 9 rotation entries
@@ -91,30 +89,43 @@ class Problem:
     def spacing_jacobian(self) -> Array:
         return spacing_jacobian(self.spacing, len(self.x_base))[:, self.free]
 
-    def constraints(self, at: Array | None = None) -> list[dict[str, object]]:
-        """SLSQP's constraint list. With `at`, the closure equations are reduced to
-        their independent combinations there: a loop through symmetric joints (a
-        tube in a tube, a ring on a ring) repeats equations, and SLSQP stops on the
-        singular system ("Singular matrix C"). The dropped combinations are the
-        ones that do not change to first order, so near `at` nothing is lost; the
-        result is projected onto all the equations afterwards (`_project`)."""
-        found: list[dict[str, object]] = []
-        if self.model.closures:
-            basis = _independent_rows(self.closure_jacobian(at)) if at is not None else None
-            if basis is None:
-                found.append({"type": "eq", "fun": self.closure, "jac": self.closure_jacobian})
-            else:
-                found.append(
-                    {
-                        "type": "eq",
-                        "fun": lambda v: basis @ self.closure(v),
-                        "jac": lambda v: basis @ self.closure_jacobian(v),
-                    }
-                )
-        if self.spacing:
-            constant = self.spacing_jacobian()
-            found.append({"type": "ineq", "fun": self.spacing_values, "jac": lambda v: constant})
-        return found
+    def equality(self) -> Callable[[Array], tuple[Array, Array]] | None:
+        """Loop closure as the optimiser's equality constraints (None without loops)."""
+        if not self.model.closures:
+            return None
+        return lambda v: (self.closure(v), self.closure_jacobian(v))
+
+    def linear(self) -> Linear | None:
+        """Spacing as the optimiser's linear inequalities (None without shared primitives)."""
+        if not self.spacing:
+            return None
+        return Linear(self.spacing_jacobian(), self.spacing_values(np.zeros(len(self.free))))
+
+    def minimize(
+        self,
+        objective: Objective,
+        start: Array,
+        max_iterations: int = 200,
+        max_evaluations: int | None = None,
+        ftol: float = 0.0,
+        gtol: float = 0.0,
+    ) -> Array:
+        """The optimiser on this problem: bounds, loops, spacing, millimetres, time limit."""
+        low, high = self.bounds()
+        return minimize(
+            objective,
+            start,
+            low,
+            high,
+            equality=self.equality(),
+            linear=self.linear(),
+            scale=mm_per_unit(self.model)[self.free],
+            max_iterations=max_iterations,
+            max_evaluations=max_evaluations,
+            ftol=ftol,
+            gtol=gtol,
+            deadline=self.deadline,
+        ).x
 
     def out_of_time(self) -> bool:
         return time.monotonic() > self.deadline
@@ -124,40 +135,25 @@ class Problem:
 
 
 def fit_target(problem: Problem, goal: target_mod.TargetGoal, starts: list[Array]) -> tuple[Array, bool]:
-    """Best free DoFs over the starts; (v, stopped early for the time limit)."""
+    """Best free DoFs over the starts; (v, stopped early for the time limit).
+
+    Every start is fitted for FIT_PROBE_EVALUATIONS first and only the most
+    promising one to FIT_EVALUATIONS: a chain that cannot reach its target
+    converges slowly from every start. A start that fits (GOOD_FIT) ends the search."""
     model = problem.model
 
-    def residual(v: Array) -> Array:
-        # with the twists: the Jacobian is asked for at the same point next, and reuses them
-        frames = model.forward(problem.full(v), with_twists=True).frames
-        return target_mod.residual(goal, target_mod.achieved(goal, frames))
-
-    def jacobian(v: Array) -> Array:
+    def residual_and_jacobian(v: Array) -> tuple[Array, Array]:
         fwd = model.forward(problem.full(v), with_twists=True)
-        return target_mod.residual_jacobian(goal, model, fwd)[:, problem.free]
+        r = target_mod.residual(goal, target_mod.achieved(goal, fwd.frames))
+        return r, target_mod.residual_jacobian(goal, model, fwd)[:, problem.free]
 
-    low, high = problem.bounds()
-    if problem.constraints():
-        return _fit_each(problem, starts, residual, jacobian)
-
-    from scipy.optimize import least_squares
+    objective = least_squares_objective(residual_and_jacobian)
 
     def fit(start: Array, evaluations: int) -> tuple[Array, float]:
-        v = least_squares(
-            residual,
-            np.clip(start, low, high),
-            jac=jacobian,
-            bounds=(low, high),
-            method="trf",
-            x_scale="jac",
-            max_nfev=evaluations,
-            ftol=FIT_FTOL,
-        ).x
-        r = residual(v)
+        v = problem.minimize(objective, start, max_evaluations=evaluations, ftol=FIT_FTOL)
+        r = residual_and_jacobian(v)[0]
         return v, float(r @ r) if _feasible(problem, v) else np.inf
 
-    # every start for a few evaluations, then the most promising one to the end: a
-    # chain that cannot reach its target converges slowly from every start
     probes: list[tuple[float, Array]] = []
     for start in starts:
         if problem.out_of_time():
@@ -173,32 +169,6 @@ def fit_target(problem: Problem, goal: target_mod.TargetGoal, starts: list[Array
         return best, True
     v, final = fit(best, FIT_EVALUATIONS)
     return (v if final <= cost else best), False
-
-
-def _fit_each(
-    problem: Problem,
-    starts: list[Array],
-    residual: Callable[[Array], Array],
-    jacobian: Callable[[Array], Array],
-) -> tuple[Array, bool]:
-    """With loops: SLSQP from each start under the closure constraints; the best."""
-    low, high = problem.bounds()
-    best_v, best_cost = starts[0], np.inf
-    for start in starts:
-        if problem.out_of_time():
-            return best_v, True
-        v = _slsqp(
-            problem,
-            lambda u: 0.5 * float(residual(u) @ residual(u)),
-            lambda u: jacobian(u).T @ residual(u),
-            np.clip(start, low, high),
-        )
-        cost = float(residual(v) @ residual(v))
-        if cost < best_cost and _feasible(problem, v):
-            best_v, best_cost = v, cost
-        if best_cost < GOOD_FIT**2:
-            break  # the other starts are there for when this one is stuck far away
-    return best_v, False
 
 
 # ---------------------------------------------------------------- step 2
@@ -272,77 +242,19 @@ def _carried_weight(model: Model, joint: int, weights: Array) -> float:
     return 0.5 * max(below)
 
 
-def settle(problem: Problem, energy: Callable[[Array], tuple[float, Array]], start: Array) -> Array:
-    """Free DoFs at rest: minimum potential energy under the constraints."""
-    from scipy.optimize import minimize
-
-    def value(v: Array) -> float:
-        return energy(problem.full(v))[0]
-
-    def gradient(v: Array) -> Array:
-        return energy(problem.full(v))[1][problem.free]
-
-    if problem.constraints():
-        # a long loop settles slowly (its energy valley is flat): more DoFs, more iterations
-        return _slsqp(problem, value, gradient, start, max(SETTLE_ITERATIONS, 12 * len(problem.free)))
-    # in millimetres, as for SLSQP: a slide's friction is stiff per unit of t
-    scale = mm_per_unit(problem.model)[problem.free]
-    low, high = problem.bounds()
-    bounds = list(zip(_finite_or_none(low * scale), _finite_or_none(high * scale), strict=True))
-
-    def scaled(u: Array) -> tuple[float, Array]:
-        value, gradient = energy(problem.full(u / scale))
-        return value, gradient[problem.free] / scale
-
-    result = minimize(
-        scaled,
-        start * scale,
-        jac=True,
-        method="L-BFGS-B",
-        bounds=bounds,
-        options={"maxiter": 500, "ftol": 1e-15, "gtol": 1e-12},
-    )
-    return np.clip(result.x / scale, low, high)
-
-
-def _finite_or_none(values: Array) -> list[float | None]:
-    return [float(v) if np.isfinite(v) else None for v in values]
-
-
-def _slsqp(
-    problem: Problem,
-    value: Callable[[Array], float],
-    gradient: Callable[[Array], Array],
-    start: Array,
-    iterations: int = 300,
+def settle(
+    problem: Problem, energy: Callable[[Array], tuple[float, Array]], start: Array, at_rest: float
 ) -> Array:
-    """SLSQP in millimetres: each DoF is scaled by how far it moves its connection
-    (`mm_per_unit`), so a slide along a 500 mm rod and a turn of a hook weigh
-    alike; unscaled, SLSQP's line search failed on long chains."""
-    from scipy.optimize import minimize
+    """Free DoFs at rest: minimum potential energy under the constraints, stopped
+    once no generalised force (joules per mm of motion) exceeds `at_rest`."""
 
-    scale = mm_per_unit(problem.model)[problem.free]
-    low, high = problem.bounds()
-    bounds = list(zip(_finite_or_none(low * scale), _finite_or_none(high * scale), strict=True))
-    constraints = [
-        {
-            "type": c["type"],
-            "fun": (lambda u, f=c["fun"]: f(u / scale)),
-            "jac": (lambda u, j=c["jac"]: j(u / scale) / scale),
-        }
-        for c in problem.constraints(at=start)
-    ]
-    result = minimize(
-        lambda u: value(u / scale),
-        start * scale,
-        jac=lambda u: gradient(u / scale) / scale,
-        method="SLSQP",
-        bounds=bounds,
-        constraints=constraints,
-        options={"maxiter": iterations, "ftol": SLSQP_FTOL},
-    )
-    v = np.clip(result.x / scale, low, high)
-    return _project(problem, v)
+    def objective(v: Array) -> tuple[float, Array, None]:
+        value, gradient = energy(problem.full(v))
+        return value, gradient[problem.free], None
+
+    # a long loop settles slowly (its energy valley is flat): more DoFs, more iterations
+    iterations = max(SETTLE_ITERATIONS, 12 * len(problem.free))
+    return problem.minimize(objective, start, max_iterations=iterations, gtol=at_rest)
 
 
 def mm_per_unit(model: Model) -> Array:
@@ -357,37 +269,6 @@ def mm_per_unit(model: Model) -> Array:
             lengths = [primitive.params.get(k, 0.0) for k in ("length", "height", "width")]
             scales[i] = max(max(lengths), 1.0)
     return scales
-
-
-def _independent_rows(jacobian: Array) -> Array | None:
-    """(r, m) orthonormal combinations of the m equations spanning the Jacobian's
-    row image (singular values above 1e-9 of the largest), or None if all are independent."""
-    left, singular, _ = np.linalg.svd(jacobian, full_matrices=False)
-    rank = int(np.sum(singular > 1e-9 * max(float(singular[0]), 1e-300))) if len(singular) else 0
-    if rank == jacobian.shape[0]:
-        return None
-    return left[:, :rank].T
-
-
-def _project(problem: Problem, v: Array) -> Array:
-    """Pull a nearly closed configuration back onto the loops (to CLOSED_MM)."""
-    if not problem.model.closures or np.abs(problem.closure(v)).max() < CLOSED_MM:
-        return v
-    from scipy.optimize import least_squares
-
-    low, high = problem.bounds()
-    fit = least_squares(
-        problem.closure,
-        v,
-        jac=problem.closure_jacobian,
-        bounds=(low, high),
-        method="trf",
-        xtol=1e-15,
-        ftol=1e-15,
-        gtol=1e-15,
-        max_nfev=100,
-    )
-    return fit.x
 
 
 def _feasible(problem: Problem, v: Array) -> bool:

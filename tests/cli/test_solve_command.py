@@ -61,7 +61,9 @@ def test_a_hack_that_falls_apart_exits_one(tmp_path: Path) -> None:
     data = json.loads(run.stdout)
     assert data["status"] == "falls_apart"
     assert [d["code"] for d in data["diagnostics"]] == ["E501"]
-    assert data["connections"][0]["at_bound"] == ["rod.t"]
+    # the hook slides to the rod's end (its tilt may also rest on an end: the two
+    # tilts of a hook on a rod add up, so the energy does not say which one turns)
+    assert "rod.t" in data["connections"][0]["at_bound"]
 
 
 def test_program_errors_exit_one_without_a_traceback(tmp_path: Path) -> None:

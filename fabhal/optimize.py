@@ -1,0 +1,430 @@
+"""Small dense optimisation in numpy: the one method behind every solver step.
+
+    minimise f(u)  subject to  c(u) = 0,  G u + h >= 0,  low <= u <= high
+
+with c the loop-closure equations (nonlinear), G u + h >= 0 the spacing of
+parts sharing a rod (linear) and the DoFs' ranges as bounds. The problems are
+small (up to a few dozen DoFs), dense, and come with exact Jacobians, so one
+feasible-point active-set method covers all of them:
+
+- every iterate satisfies c(u) = 0: after each step a Newton projection
+  (`restore`) brings the point back onto the loops, so the result is closed
+  even when the iteration limit or the time limit stops it early
+  (generalised reduced gradient);
+- a bound or a spacing inequality joins the active set when a step reaches
+  it, and leaves when its multiplier says the optimum lies inside;
+- the step minimises a quadratic model on the tangent space of the active
+  constraints: Gauss-Newton with Levenberg-Marquardt damping for least
+  squares (`least_squares_objective`), damped BFGS for other objectives.
+
+Why not scipy.optimize: importing it costs 0.4-0.8 s of every process, more
+than a whole solve is allowed (bench/README.md); and SLSQP, which handled the
+loops before, needed hundreds of iterations in the flat valleys of long loops
+where this tangent-space Newton method needs tens.
+
+Everything works in scaled variables u = x * scale (the solver passes
+millimetres of motion per unit of each DoF), so a slide along a 500 mm rod and
+the turn of a hook weigh alike in steps, tolerances and damping.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+Array = np.ndarray
+# value, gradient, and the Hessian when the objective has a model of it (None: BFGS builds one)
+Objective = Callable[[Array], tuple[float, Array, Array | None]]
+Equality = Callable[[Array], tuple[Array, Array]]  # c(x), dc/dx
+
+ARMIJO = 1e-4  # sufficient decrease, as a fraction of the model's first-order decrease
+RESTORE_ITERATIONS = 12
+RESTORED = 1e-10  # largest |c| accepted as on the constraints (the caller's units: mm)
+# a scaled variable this close to a bound, or a spacing this close to 0, is on it: a
+# nanometre (scaled variables are millimetres); closer, a step would stall on it
+ACTIVE = 1e-6
+RANK = 1e-9  # singular values below this fraction of the largest span no direction
+
+
+@dataclass(frozen=True)
+class Linear:
+    """Linear inequalities G x + h >= 0."""
+
+    matrix: Array  # (m, n)
+    offset: Array  # (m,)
+
+
+@dataclass(frozen=True)
+class Result:
+    x: Array
+    value: float
+    stationarity: float  # largest projected gradient component at x (objective units per scaled unit)
+    iterations: int
+    evaluations: int
+    converged: bool
+    feasible: bool  # on the equality constraints (always true without them)
+
+
+def least_squares_objective(residual_and_jacobian: Callable[[Array], tuple[Array, Array]]) -> Objective:
+    """f = |r|^2 / 2 with the Gauss-Newton Hessian J^T J."""
+
+    def objective(x: Array) -> tuple[float, Array, Array | None]:
+        r, jacobian = residual_and_jacobian(x)
+        return 0.5 * float(r @ r), jacobian.T @ r, jacobian.T @ jacobian
+
+    return objective
+
+
+@dataclass
+class _Scaled:
+    """The problem in scaled variables u = x * scale."""
+
+    objective: Objective
+    equality: Equality | None
+    linear: Linear | None
+    scale: Array
+    low: Array
+    high: Array
+    evaluations: int = 0
+
+    def evaluate(self, u: Array) -> tuple[float, Array, Array | None]:
+        self.evaluations += 1
+        value, gradient, hessian = self.objective(u / self.scale)
+        gradient = gradient / self.scale
+        if hessian is not None:
+            hessian = hessian / np.outer(self.scale, self.scale)
+        return value, gradient, hessian
+
+    def constraints(self, u: Array) -> tuple[Array, Array]:
+        if self.equality is None:
+            return np.zeros(0), np.zeros((0, len(u)))
+        c, jacobian = self.equality(u / self.scale)
+        return c, jacobian / self.scale
+
+    def linear_rows(self) -> tuple[Array, Array]:
+        if self.linear is None:
+            return np.zeros((0, len(self.scale))), np.zeros(0)
+        return self.linear.matrix / self.scale, self.linear.offset
+
+    def on_bounds(self, u: Array) -> tuple[Array, Array]:
+        return u <= self.low + ACTIVE, u >= self.high - ACTIVE
+
+
+def minimize(
+    objective: Objective,
+    start: Array,
+    low: Array,
+    high: Array,
+    *,
+    equality: Equality | None = None,
+    linear: Linear | None = None,
+    scale: Array | None = None,
+    max_iterations: int = 200,
+    max_evaluations: int | None = None,
+    ftol: float = 0.0,
+    gtol: float = 0.0,
+    xtol: float = 1e-10,
+    stop_below: float = -np.inf,
+    deadline: float = np.inf,
+) -> Result:
+    """Minimise from `start` (clipped to the bounds, projected onto c = 0).
+
+    Stops when the projected gradient is at most `gtol`, when an accepted step
+    lowers f by at most `ftol` * |f| or moves no scaled variable more than
+    `xtol`, when f <= `stop_below`, or at the limits. Bounds may be infinite."""
+    scale = np.ones(len(start)) if scale is None else np.asarray(scale, dtype=float)
+    problem = _Scaled(objective, equality, linear, scale, low * scale, high * scale)
+    u = np.clip(np.asarray(start, dtype=float) * scale, problem.low, problem.high)
+    u, c, a, feasible = restore(problem, u, np.zeros(len(u), dtype=bool))
+    if not feasible:
+        u, c, a, feasible = _close(problem, u)
+    value, gradient, hessian = problem.evaluate(u)
+    state = _Iteration(problem, hessian is None)
+    stationarity, converged, iterations = np.inf, False, 0
+    while iterations < max_iterations:
+        iterations += 1
+        step, stationarity = state.step(u, gradient, hessian, a, c)
+        if stationarity <= gtol or value <= stop_below or float(np.abs(step).max(initial=0.0)) <= xtol:
+            converged = True
+            break
+        if (max_evaluations is not None and problem.evaluations >= max_evaluations) or (
+            time.monotonic() > deadline
+        ):
+            break
+        accepted = state.line_search(u, value, gradient, step)
+        if accepted is None:
+            if state.reset():  # the model was stale: try again with a fresh one
+                continue
+            converged = True  # nothing lower along the step of a fresh model: at the bottom
+            break
+        u_new, c, a_new, value_new, gradient_new, hessian, whole = accepted
+        state.learn(u_new - u, gradient_new - gradient, a_new - a, hessian)
+        lowered = value - value_new
+        u, a, value, gradient, feasible = u_new, a_new, value_new, gradient_new, True
+        # a step cut short by a bound or a spacing says nothing about convergence
+        if whole and lowered <= ftol * abs(value):
+            converged = True
+            break
+    return Result(u / scale, value, float(stationarity), iterations, problem.evaluations, converged, feasible)
+
+
+class _Iteration:
+    """The active set, the quadratic model and its damping between iterations.
+
+    Least squares: the Gauss-Newton Hessian J^T J plus a secant correction S for
+    what it leaves out (the residual's and the loops' curvature; Dennis, Gay &
+    Welsch's NL2SOL update), damped Levenberg-Marquardt style. A target the
+    chain cannot reach leaves a large residual, where plain Gauss-Newton crawls.
+    Other objectives: damped BFGS (Powell) of the Lagrangian's Hessian."""
+
+    def __init__(self, problem: _Scaled, bfgs: bool) -> None:
+        self.problem = problem
+        self.bfgs = bfgs
+        n = len(problem.scale)
+        self.model: Array | None = None  # BFGS matrix, or NL2SOL's correction S
+        self.fresh = True  # the model has seen no curvature yet
+        self.damping = 1e-3  # Levenberg-Marquardt, relative to the Gauss-Newton diagonal
+        self.multipliers = np.zeros(0)  # of the equality constraints, for the secant updates
+        self.fixed = np.zeros(n, dtype=bool)
+        self.hessian = np.zeros((n, n))  # of the quadratic model of the last step
+
+    def step(
+        self, u: Array, gradient: Array, hessian: Array | None, a: Array, c: Array
+    ) -> tuple[Array, float]:
+        """The step of the quadratic model on the active set; the projected gradient."""
+        while True:
+            self.hessian = self._model_hessian(gradient, hessian)
+            found = self._active_step(u, gradient, a, c)
+            if found is not None:
+                return found
+            self.damping = max(self.damping, 1e-6) * 10.0  # not convex on the tangent space: damp more
+
+    def _active_step(self, u: Array, gradient: Array, a: Array, c: Array) -> tuple[Array, float] | None:
+        problem = self.problem
+        at_low, at_high = problem.on_bounds(u)
+        g_rows, h = problem.linear_rows()
+        on_linear = g_rows @ u + h <= ACTIVE
+        fixed = at_low | at_high
+        threshold = 1e-12 + 1e-9 * float(np.abs(gradient).max(initial=0.0))
+        while True:
+            free = ~fixed
+            rows = np.vstack([a[:, free], g_rows[on_linear][:, free]])
+            rhs = np.concatenate([-c, -(g_rows[on_linear] @ u + h[on_linear])])
+            solved = constrained_step(self.hessian[np.ix_(free, free)], gradient[free], rows, rhs)
+            if solved is None:
+                return None
+            d_free, lam, projected = solved
+            step = np.zeros(len(u))
+            step[free] = d_free
+            # multipliers of the active inequalities; a negative one is a constraint to leave
+            push = gradient + self.hessian @ step - np.vstack([a, g_rows[on_linear]]).T @ lam
+            release = np.zeros(len(u))
+            release[at_low & fixed] = -push[at_low & fixed]
+            release[at_high & fixed] = push[at_high & fixed]
+            linear_release = -lam[len(c) :]
+            if len(linear_release) and linear_release.max() > max(release.max(initial=0.0), threshold):
+                on_linear[np.flatnonzero(on_linear)[int(np.argmax(linear_release))]] = False
+                continue
+            if release.max(initial=0.0) > threshold:
+                fixed[int(np.argmax(release))] = False
+                continue
+            self.fixed = fixed
+            self.multipliers = lam[: len(c)]
+            return step, projected
+
+    def _model_hessian(self, gradient: Array, hessian: Array | None) -> Array:
+        n = len(gradient)
+        if self.bfgs:
+            if self.model is None:
+                # until a step shows the curvature: a first step of about 1 scaled unit (1 mm)
+                self.model = np.eye(n) * max(float(np.abs(gradient).max(initial=0.0)), 1e-12)
+                self.fresh = True
+            return self.model
+        assert hessian is not None
+        if self.model is None:
+            self.model = np.zeros((n, n))
+        diagonal = np.diag(hessian)
+        floor = 1e-9 * max(float(diagonal.max(initial=0.0)), 1e-12)
+        return hessian + self.model + self.damping * np.diag(diagonal + floor)
+
+    def line_search(
+        self, u: Array, value: float, gradient: Array, step: Array
+    ) -> tuple[Array, Array, Array, float, Array, Array | None, bool] | None:
+        """Backtracking along the step projected onto the bounds (several may
+        become active at once), stopped at the first spacing it reaches, each trial
+        projected back onto the loops: (point, c, dc/du, f, its gradient, its
+        Hessian, whether the whole step was taken), or None when nothing is lower."""
+        problem = self.problem
+        alpha = min(1.0, _longest(problem, u, step))
+        g_rows, h = problem.linear_rows()
+        while alpha > 1e-10:
+            clipped = np.clip(u + alpha * step, problem.low, problem.high)
+            moved = clipped - u
+            slope = float(gradient @ moved)
+            if slope >= 0.0:
+                return None
+            trial, c, a, feasible = restore(problem, clipped, self.fixed | (clipped != u + alpha * step))
+            if feasible and np.all(g_rows @ trial + h >= -ACTIVE):
+                value_new, gradient_new, hessian = problem.evaluate(trial)
+                if value_new <= value + ARMIJO * slope:
+                    if not self.bfgs:
+                        predicted = -(slope + 0.5 * float(moved @ self.hessian @ moved))
+                        self._adapt(alpha == 1.0, (value - value_new) / max(predicted, 1e-300))
+                    return trial, c, a, value_new, gradient_new, hessian, alpha == 1.0
+            alpha *= 0.5
+            if not self.bfgs:
+                self.damping *= 4.0
+        return None
+
+    def _adapt(self, full_step: bool, ratio: float) -> None:
+        """Levenberg-Marquardt: trust the quadratic model more where it predicted well."""
+        if full_step and ratio > 0.75:
+            self.damping = max(self.damping / 3.0, 1e-12)
+        elif ratio < 0.25:
+            self.damping *= 2.0
+
+    def reset(self) -> bool:
+        """After a failed line search: start the model again if that may help."""
+        if not self.fresh:
+            self.model, self.fresh = None, True
+            return True
+        if not self.bfgs and self.damping < 1e8:
+            self.damping = max(self.damping, 1.0) * 100.0
+            return True
+        return False
+
+    def learn(self, s: Array, gradient_change: Array, jacobian_change: Array, hessian: Array | None) -> None:
+        """Secant update of the model from a step s: the loops' curvature enters
+        through the multipliers and the change of their Jacobian."""
+        y = gradient_change - jacobian_change.T @ self.multipliers
+        sy = float(s @ y)
+        if self.model is None or sy <= 1e-300:
+            return
+        if self.bfgs:
+            self._bfgs(s, y, sy)
+        else:
+            assert hessian is not None
+            self._nl2sol(s, y, sy, hessian)
+        self.fresh = False
+
+    def _bfgs(self, s: Array, y: Array, sy: float) -> None:
+        """Damped BFGS (Powell), from the identity scaled to the first curvature
+        seen (Nocedal & Wright, eq. 6.20)."""
+        if self.fresh:
+            self.model = np.eye(len(s)) * float(y @ y) / sy
+        assert self.model is not None
+        bs = self.model @ s
+        sbs = float(s @ bs)
+        theta = 1.0 if sy >= 0.2 * sbs else 0.8 * sbs / (sbs - sy)
+        r = theta * y + (1.0 - theta) * bs
+        self.model = self.model - np.outer(bs, bs) / sbs + np.outer(r, r) / float(s @ r)
+
+    def _nl2sol(self, s: Array, y: Array, sy: float, gauss_newton: Array) -> None:
+        """S with (J^T J + S) s = y, sized down first when it overshoots (NL2SOL)."""
+        assert self.model is not None
+        wanted = y - gauss_newton @ s
+        ss = self.model @ s
+        s_ss = float(s @ ss)
+        if s_ss > 0.0:
+            size = min(1.0, abs(float(s @ wanted)) / s_ss)
+            self.model, ss = self.model * size, ss * size
+        v = wanted - ss
+        self.model = (
+            self.model + (np.outer(v, y) + np.outer(y, v)) / sy - float(s @ v) * np.outer(y, y) / sy**2
+        )
+
+
+def constrained_step(
+    hessian: Array, gradient: Array, rows: Array, rhs: Array
+) -> tuple[Array, Array, float] | None:
+    """min g.d + d.H.d / 2 subject to rows d = rhs, rows possibly dependent
+    (loops through symmetric joints repeat equations): (d, multipliers lam with
+    g + H d = rows^T lam, largest component of the gradient projected on the
+    constraints' null space); None when H is not positive definite there."""
+    if rows.shape[0] == 0:
+        d = _solve_spd(hessian, -gradient)
+        return None if d is None else (d, np.zeros(0), float(np.abs(gradient).max(initial=0.0)))
+    left, singular, right_t = np.linalg.svd(rows, full_matrices=True)
+    rank = int(np.sum(singular > RANK * max(float(singular.max(initial=0.0)), 1e-300)))
+    image, null = right_t[:rank].T, right_t[rank:].T
+    particular = image @ ((left[:, :rank].T @ rhs) / singular[:rank])
+    projected = null @ (null.T @ gradient)
+    if null.shape[1]:
+        reduced = null.T @ hessian @ null
+        w = _solve_spd(reduced, -(null.T @ (gradient + hessian @ particular)))
+        if w is None:
+            return None
+        step = particular + null @ w
+    else:
+        step = particular
+    multipliers = left[:, :rank] @ ((right_t[:rank] @ (gradient + hessian @ step)) / singular[:rank])
+    return step, multipliers, float(np.abs(projected).max(initial=0.0))
+
+
+def _solve_spd(matrix: Array, rhs: Array) -> Array | None:
+    """matrix^-1 rhs for a positive definite matrix; None for any other."""
+    try:
+        factor = np.linalg.cholesky(matrix)
+    except np.linalg.LinAlgError:
+        return None
+    return np.linalg.solve(factor.T, np.linalg.solve(factor, rhs))
+
+
+def _longest(problem: _Scaled, u: Array, step: Array) -> float:
+    """The largest alpha keeping u + alpha step inside the inactive spacing."""
+    alpha = np.inf
+    g_rows, h = problem.linear_rows()
+    if len(h):
+        values, rates = g_rows @ u + h, g_rows @ step
+        inactive = (values > ACTIVE) & (rates < 0)
+        if np.any(inactive):
+            alpha = min(alpha, float(np.min(-values[inactive] / rates[inactive])))
+    return max(alpha, 0.0)
+
+
+def _close(problem: _Scaled, u: Array) -> tuple[Array, Array, Array, bool]:
+    """A start too far from the loops for Newton's projection: least squares on
+    the closure residual first, inside the bounds."""
+    assert problem.equality is not None
+    closed = minimize(
+        least_squares_objective(problem.equality),
+        u / problem.scale,
+        problem.low / problem.scale,
+        problem.high / problem.scale,
+        linear=problem.linear,
+        scale=problem.scale,
+        stop_below=0.5 * RESTORED**2,
+    )
+    return restore(problem, closed.x * problem.scale, np.zeros(len(u), dtype=bool))
+
+
+def restore(problem: _Scaled, u: Array, fixed: Array) -> tuple[Array, Array, Array, bool]:
+    """Newton projection onto c = 0 moving only the variables off their bounds
+    (least-norm steps, keeping active spacing where it is): (u, c, dc/du, on c = 0)."""
+    c, a = problem.constraints(u)
+    if problem.equality is None:
+        return u, c, a, True
+    g_rows, h = problem.linear_rows()
+    held = fixed.copy()
+    previous = np.inf
+    for _ in range(RESTORE_ITERATIONS):
+        error = float(np.abs(c).max(initial=0.0))
+        if error <= RESTORED:
+            return u, c, a, True
+        if error >= previous:
+            break  # not converging: the step went too far from the loops
+        previous = error
+        active = g_rows @ u + h <= ACTIVE
+        free = ~held
+        rows = np.vstack([a[:, free], g_rows[active][:, free]])
+        rhs = -np.concatenate([c, g_rows[active] @ u + h[active]])
+        u = u.copy()
+        u[free] += np.linalg.lstsq(rows, rhs, rcond=RANK)[0]
+        clipped = np.clip(u, problem.low, problem.high)
+        held |= clipped != u
+        u = clipped
+        c, a = problem.constraints(u)
+    return u, c, a, float(np.abs(c).max(initial=0.0)) <= RESTORED
