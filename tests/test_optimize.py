@@ -1,0 +1,155 @@
+"""fabhal.optimize against known optima and against scipy.optimize (the reference
+the solver used before; scipy stays installed, through trimesh and for these tests).
+
+Tolerances: the problems are well conditioned, so optima agree to 1e-6 in x
+(the methods stop on relative decreases of 1e-12 or gradients of 1e-10)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from scipy.optimize import lsq_linear
+
+from fabhal.optimize import Linear, constrained_step, least_squares_objective, minimize
+
+FREE = (np.full(2, -np.inf), np.full(2, np.inf))
+
+
+def rosenbrock_residual(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    return np.array([10 * (x[1] - x[0] ** 2), 1 - x[0]]), np.array([[-20 * x[0], 10.0], [-1.0, 0.0]])
+
+
+def rosenbrock(x: np.ndarray) -> tuple[float, np.ndarray, None]:
+    r, jacobian = rosenbrock_residual(x)
+    return 0.5 * float(r @ r), jacobian.T @ r, None
+
+
+def x_plus_y(x: np.ndarray) -> tuple[float, np.ndarray, None]:
+    return float(x.sum()), np.ones(2), None
+
+
+def on_circle(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """x^2 + y^2 = 2, and the same equation again: dependent rows must not matter."""
+    return np.array([x @ x - 2.0, x @ x - 2.0]), np.vstack([2 * x, 2 * x])
+
+
+def test_gauss_newton_finds_the_rosenbrock_valley_floor() -> None:
+    result = minimize(least_squares_objective(rosenbrock_residual), np.array([-1.2, 1.0]), *FREE, ftol=1e-14)
+    assert result.converged
+    assert np.allclose(result.x, [1.0, 1.0], atol=1e-8)
+
+
+def test_a_bound_stops_the_fit_where_scipy_does() -> None:
+    low, high = np.array([-2.0, -2.0]), np.array([0.5, 2.0])
+    result = minimize(
+        least_squares_objective(rosenbrock_residual), np.array([-1.2, 1.0]), low, high, ftol=1e-14
+    )
+    # on x0 = 0.5 the best x1 is 0.25 (residual 10 (x1 - x0^2) = 0)
+    assert np.allclose(result.x, [0.5, 0.25], atol=1e-8)
+
+
+def test_bfgs_minimises_a_function_without_a_hessian() -> None:
+    result = minimize(rosenbrock, np.array([-1.2, 1.0]), *FREE, gtol=1e-10, max_iterations=500)
+    assert result.converged and result.stationarity <= 1e-8  # or a step under xtol ends it first
+    assert np.allclose(result.x, [1.0, 1.0], atol=1e-6)
+
+
+def test_every_iterate_stays_on_the_equality_constraints() -> None:
+    visited: list[np.ndarray] = []
+
+    def recorded(x: np.ndarray) -> tuple[float, np.ndarray, None]:
+        visited.append(x.copy())
+        return x_plus_y(x)
+
+    result = minimize(recorded, np.array([np.sqrt(2.0), 0.0]), *FREE, equality=on_circle, gtol=1e-10)
+    assert np.allclose(result.x, [-1.0, -1.0], atol=1e-8)
+    assert all(abs(float(x @ x) - 2.0) < 1e-9 for x in visited)
+
+
+def test_a_bound_on_the_circle() -> None:
+    low, high = np.array([-0.5, -5.0]), np.full(2, np.inf)
+    result = minimize(x_plus_y, np.array([np.sqrt(2.0), 0.0]), low, high, equality=on_circle, gtol=1e-10)
+    assert np.allclose(result.x, [-0.5, -np.sqrt(1.75)], atol=1e-8)
+
+
+def test_a_linear_inequality_on_the_circle() -> None:
+    # x - y >= 0.5 cuts off (-1, -1); the optimum is where the line meets the circle
+    spacing = Linear(np.array([[1.0, -1.0]]), np.array([-0.5]))
+    result = minimize(
+        x_plus_y, np.array([np.sqrt(2.0), 0.0]), *FREE, equality=on_circle, linear=spacing, gtol=1e-10
+    )
+    y = (-1.0 - np.sqrt(15.0)) / 4.0
+    assert np.allclose(result.x, [y + 0.5, y], atol=1e-8)
+
+
+def test_a_start_far_from_the_constraints_is_brought_onto_them() -> None:
+    result = minimize(x_plus_y, np.array([5.0, 3.0]), *FREE, equality=on_circle, gtol=1e-10)
+    assert result.feasible
+    assert np.allclose(result.x, [-1.0, -1.0], atol=1e-8)
+
+
+def test_scaling_does_not_change_the_optimum() -> None:
+    low, high = np.array([-2.0, -2.0]), np.array([0.5, 2.0])
+    result = minimize(
+        least_squares_objective(rosenbrock_residual),
+        np.array([-1.2, 1.0]),
+        low,
+        high,
+        scale=np.array([300.0, 0.01]),
+        ftol=1e-14,
+    )
+    assert np.allclose(result.x, [0.5, 0.25], atol=1e-7)
+
+
+@settings(max_examples=40, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1))
+def test_bounded_linear_least_squares_agree_with_scipy(seed: int) -> None:
+    rng = np.random.default_rng(seed)
+    n = int(rng.integers(2, 8))
+    a = rng.normal(size=(n + 3, n))
+    b = rng.normal(size=n + 3) * 3.0
+    low, high = -rng.uniform(0.1, 1.0, n), rng.uniform(0.1, 1.0, n)
+    result = minimize(
+        least_squares_objective(lambda x: (a @ x - b, a)),
+        np.zeros(n),
+        low,
+        high,
+        ftol=1e-15,
+        max_iterations=500,
+    )
+    reference = lsq_linear(a, b, bounds=(low, high), tol=1e-14).x
+    cost = float(np.sum((a @ result.x - b) ** 2))
+    assert cost <= float(np.sum((a @ reference - b) ** 2)) + 1e-9
+    assert np.allclose(result.x, reference, atol=1e-6)
+
+
+@settings(max_examples=40, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1))
+def test_constrained_step_solves_the_kkt_system(seed: int) -> None:
+    rng = np.random.default_rng(seed)
+    n, m = int(rng.integers(3, 9)), int(rng.integers(1, 3))
+    basis = rng.normal(size=(n, n))
+    hessian = basis @ basis.T + np.eye(n)
+    gradient = rng.normal(size=n)
+    independent = rng.normal(size=(m, n))
+    rows = np.vstack([independent, independent[:1] * 2.0])  # a repeated equation
+    rhs = rows @ rng.normal(size=n)  # consistent
+    solved = constrained_step(hessian, gradient, rows, rhs)
+    assert solved is not None
+    step, multipliers, _ = solved
+    assert np.allclose(rows @ step, rhs, atol=1e-9)
+    assert np.allclose(gradient + hessian @ step, rows.T @ multipliers, atol=1e-8)
+
+
+def test_constrained_step_refuses_a_model_that_is_not_convex() -> None:
+    assert constrained_step(-np.eye(3), np.ones(3), np.zeros((0, 3)), np.zeros(0)) is None
+
+
+@pytest.mark.parametrize("stop", [1e-3, 1e-6])
+def test_stop_below_ends_the_search_early(stop: float) -> None:
+    result = minimize(
+        least_squares_objective(rosenbrock_residual), np.array([-1.2, 1.0]), *FREE, stop_below=stop
+    )
+    assert result.converged and result.value <= stop
