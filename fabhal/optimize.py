@@ -129,12 +129,17 @@ def minimize(
     xtol: float = 1e-10,
     stop_below: float = -np.inf,
     deadline: float = np.inf,
+    measure_curvature: bool = False,
 ) -> Result:
     """Minimise from `start` (clipped to the bounds, projected onto c = 0).
 
     Stops when the projected gradient is at most `gtol`, when an accepted step
     lowers f by at most `ftol` * |f| or moves no scaled variable more than
-    `xtol`, when f <= `stop_below`, or at the limits. Bounds may be infinite."""
+    `xtol`, when f <= `stop_below`, or at the limits. Bounds may be infinite.
+    With `measure_curvature`, BFGS starts from the Hessian of the Lagrangian
+    by finite differences (one gradient per variable) instead of a multiple of
+    the identity: worth it where the curvature differs a lot between variables
+    (a stiff friction term beside a slow swing) and iterations are dear."""
     scale = np.ones(len(start)) if scale is None else np.asarray(scale, dtype=float)
     problem = _Scaled(objective, equality, linear, scale, low * scale, high * scale)
     u = np.clip(np.asarray(start, dtype=float) * scale, problem.low, problem.high)
@@ -143,6 +148,9 @@ def minimize(
         u, c, a, feasible = _close(problem, u)
     value, gradient, hessian = problem.evaluate(u)
     state = _Iteration(problem, hessian is None)
+    if measure_curvature and hessian is None:
+        state.measure = lambda at, g, a_at: _lagrangian_hessian(problem, at, g, a_at)
+        state.start_from(state.measure(u, gradient, a))
     stationarity, converged, iterations = np.inf, False, 0
     while iterations < max_iterations:
         iterations += 1
@@ -156,7 +164,7 @@ def minimize(
             break
         accepted = state.line_search(u, value, gradient, step)
         if accepted is None:
-            if state.reset():  # the model was stale: try again with a fresh one
+            if state.reset(u, gradient, a):  # the model was stale: try again with a fresh one
                 continue
             converged = True  # nothing lower along the step of a fresh model: at the bottom
             break
@@ -190,6 +198,8 @@ class _Iteration:
         self.multipliers = np.zeros(0)  # of the equality constraints, for the secant updates
         self.fixed = np.zeros(n, dtype=bool)
         self.hessian = np.zeros((n, n))  # of the quadratic model of the last step
+        # measures the Hessian of the Lagrangian at (u, gradient, dc/du), if BFGS should start from it
+        self.measure: Callable[[Array, Array, Array], Array] | None = None
 
     def step(
         self, u: Array, gradient: Array, hessian: Array | None, a: Array, c: Array
@@ -235,13 +245,19 @@ class _Iteration:
             self.multipliers = lam[: len(c)]
             return step, projected
 
+    def start_from(self, hessian: Array) -> None:
+        """BFGS from a measured Hessian, made positive definite (eigenvalues
+        mirrored and floored: a saddle's downhill direction keeps its scale)."""
+        values, vectors = np.linalg.eigh(0.5 * (hessian + hessian.T))
+        floor = 1e-6 * max(float(np.abs(values).max(initial=0.0)), 1e-12)
+        self.model = (vectors * np.maximum(np.abs(values), floor)) @ vectors.T
+
     def _model_hessian(self, gradient: Array, hessian: Array | None) -> Array:
         n = len(gradient)
         if self.bfgs:
             if self.model is None:
                 # until a step shows the curvature: a first step of about 1 scaled unit (1 mm)
                 self.model = np.eye(n) * max(float(np.abs(gradient).max(initial=0.0)), 1e-12)
-                self.fresh = True
             return self.model
         assert hessian is not None
         if self.model is None:
@@ -264,9 +280,11 @@ class _Iteration:
             clipped = np.clip(u + alpha * step, problem.low, problem.high)
             moved = clipped - u
             slope = float(gradient @ moved)
-            if slope >= 0.0:
-                return None
-            trial, c, a, feasible = restore(problem, clipped, self.fixed | (clipped != u + alpha * step))
+            trial, c, a, feasible = (
+                restore(problem, clipped, self.fixed | (clipped != u + alpha * step))
+                if slope < 0.0  # else bent too far by the bounds: shorter, they bend it less
+                else (clipped, np.zeros(0), np.zeros((0, 0)), False)
+            )
             if feasible and np.all(g_rows @ trial + h >= -ACTIVE):
                 value_new, gradient_new, hessian = problem.evaluate(trial)
                 if value_new <= value + ARMIJO * slope:
@@ -280,16 +298,20 @@ class _Iteration:
         return None
 
     def _adapt(self, full_step: bool, ratio: float) -> None:
-        """Levenberg-Marquardt: trust the quadratic model more where it predicted well."""
+        """Levenberg-Marquardt: trust the quadratic model more where it predicted well
+        (the line search has already damped more for every halving of the step)."""
         if full_step and ratio > 0.75:
             self.damping = max(self.damping / 3.0, 1e-12)
         elif ratio < 0.25:
             self.damping *= 2.0
 
-    def reset(self) -> bool:
+    def reset(self, u: Array, gradient: Array, a: Array) -> bool:
         """After a failed line search: start the model again if that may help."""
         if not self.fresh:
-            self.model, self.fresh = None, True
+            self.model = None
+            if self.measure is not None:
+                self.start_from(self.measure(u, gradient, a))
+            self.fresh = True
             return True
         if not self.bfgs and self.damping < 1e8:
             self.damping = max(self.damping, 1.0) * 100.0
@@ -301,23 +323,28 @@ class _Iteration:
         through the multipliers and the change of their Jacobian."""
         y = gradient_change - jacobian_change.T @ self.multipliers
         sy = float(s @ y)
-        if self.model is None or sy <= 1e-300:
+        if self.model is None:
             return
         if self.bfgs:
             self._bfgs(s, y, sy)
-        else:
+        elif sy > 1e-300:  # NL2SOL's update needs positive curvature along the step
             assert hessian is not None
             self._nl2sol(s, y, sy, hessian)
+        else:
+            return
         self.fresh = False
 
     def _bfgs(self, s: Array, y: Array, sy: float) -> None:
-        """Damped BFGS (Powell), from the identity scaled to the first curvature
-        seen (Nocedal & Wright, eq. 6.20)."""
-        if self.fresh:
+        """Damped BFGS (Powell: defined for any curvature along the step, negative
+        too, as near an unstable balance), from the measured Hessian or the
+        identity scaled to the first positive curvature seen (Nocedal & Wright, 6.20)."""
+        if self.fresh and self.measure is None and sy > 0.0:
             self.model = np.eye(len(s)) * float(y @ y) / sy
         assert self.model is not None
         bs = self.model @ s
         sbs = float(s @ bs)
+        if sbs <= 1e-300:
+            return
         theta = 1.0 if sy >= 0.2 * sbs else 0.8 * sbs / (sbs - sy)
         r = theta * y + (1.0 - theta) * bs
         self.model = self.model - np.outer(bs, bs) / sbs + np.outer(r, r) / float(s @ r)
@@ -335,6 +362,22 @@ class _Iteration:
         self.model = (
             self.model + (np.outer(v, y) + np.outer(y, v)) / sy - float(s @ v) * np.outer(y, y) / sy**2
         )
+
+
+def _lagrangian_hessian(problem: _Scaled, u: Array, gradient: Array, a: Array) -> Array:
+    """Forward differences of the Lagrangian's gradient, stepping inwards at upper bounds."""
+    multipliers = np.linalg.lstsq(a.T, gradient, rcond=None)[0] if len(a) else np.zeros(0)
+    base = gradient - a.T @ multipliers
+    step = 1e-4  # scaled units (mm): the friction smoothing is 0.5 mm, the swings far longer
+    columns = []
+    for i in range(len(u)):
+        h = -step if u[i] + step > problem.high[i] else step
+        moved = u.copy()
+        moved[i] += h
+        _, g, _ = problem.evaluate(moved)
+        _, a_moved = problem.constraints(moved)
+        columns.append((g - a_moved.T @ multipliers - base) / h)
+    return np.array(columns).T
 
 
 def constrained_step(

@@ -109,6 +109,7 @@ class Problem:
         max_evaluations: int | None = None,
         ftol: float = 0.0,
         gtol: float = 0.0,
+        measure_curvature: bool = False,
     ) -> Array:
         """The optimiser on this problem: bounds, loops, spacing, millimetres, time limit."""
         low, high = self.bounds()
@@ -125,6 +126,7 @@ class Problem:
             ftol=ftol,
             gtol=gtol,
             deadline=self.deadline,
+            measure_curvature=measure_curvature,
         ).x
 
     def out_of_time(self) -> bool:
@@ -254,7 +256,7 @@ def settle(
 
     # a long loop settles slowly (its energy valley is flat): more DoFs, more iterations
     iterations = max(SETTLE_ITERATIONS, 12 * len(problem.free))
-    return problem.minimize(objective, start, max_iterations=iterations, gtol=at_rest)
+    return problem.minimize(objective, start, max_iterations=iterations, gtol=at_rest, measure_curvature=True)
 
 
 def mm_per_unit(model: Model) -> Array:
