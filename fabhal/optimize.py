@@ -198,6 +198,8 @@ class _Iteration:
         self.multipliers = np.zeros(0)  # of the equality constraints, for the secant updates
         self.fixed = np.zeros(n, dtype=bool)
         self.hessian = np.zeros((n, n))  # of the quadratic model of the last step
+        self.gauss_newton = np.zeros((n, n))  # J^T J at the last point (least squares)
+        self.corrected = False  # least squares: whether the model includes S (NL2SOL's choice)
         # measures the Hessian of the Lagrangian at (u, gradient, dc/du), if BFGS should start from it
         self.measure: Callable[[Array, Array, Array], Array] | None = None
 
@@ -262,9 +264,11 @@ class _Iteration:
         assert hessian is not None
         if self.model is None:
             self.model = np.zeros((n, n))
+        self.gauss_newton = hessian
         diagonal = np.diag(hessian)
         floor = 1e-9 * max(float(diagonal.max(initial=0.0)), 1e-12)
-        return hessian + self.model + self.damping * np.diag(diagonal + floor)
+        corrected = hessian + self.model if self.corrected else hessian
+        return corrected + self.damping * np.diag(diagonal + floor)
 
     def line_search(
         self, u: Array, value: float, gradient: Array, step: Array
@@ -291,11 +295,21 @@ class _Iteration:
                     if not self.bfgs:
                         predicted = -(slope + 0.5 * float(moved @ self.hessian @ moved))
                         self._adapt(alpha == 1.0, (value - value_new) / max(predicted, 1e-300))
+                        self._choose_model(moved, slope, value - value_new)
                     return trial, c, a, value_new, gradient_new, hessian, alpha == 1.0
             alpha *= 0.5
             if not self.bfgs:
                 self.damping *= 4.0
         return None
+
+    def _choose_model(self, moved: Array, slope: float, lowered: float) -> None:
+        """NL2SOL's switch: next, use the model (Gauss-Newton, or with the correction S)
+        that predicted this step's decrease better. Near a zero residual Gauss-Newton
+        converges fast and S only shortens the steps; far from one S is the better model."""
+        assert self.model is not None
+        plain = -(slope + 0.5 * float(moved @ self.gauss_newton @ moved))
+        corrected = plain - 0.5 * float(moved @ self.model @ moved)
+        self.corrected = abs(corrected - lowered) < abs(plain - lowered)
 
     def _adapt(self, full_step: bool, ratio: float) -> None:
         """Levenberg-Marquardt: trust the quadratic model more where it predicted well

@@ -36,7 +36,7 @@ FRICTION = (
 FRICTION_SMOOTHING_MM = 0.5
 CLOSED_MM = 1e-6
 FIT_EVALUATIONS = 200  # for the most promising start of step 1 without loops
-FIT_PROBE_EVALUATIONS = 60  # for each start first
+FIT_PROBE_EVALUATIONS = 30  # for each start first
 FIT_FTOL = 1e-8  # relative decrease of the target cost that ends a fit
 # a start whose target residual (mm, and degrees counted as mm) is this close needs no other start
 GOOD_FIT = 0.5
