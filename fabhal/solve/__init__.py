@@ -36,8 +36,10 @@ FALL_RETRIES = 2  # more attempts, from other seeds' starts, when a result falls
 # step 2 settles again from this many nudged copies of its result: a gradient method
 # stays on an unstable balance (a hook upside down on its rod); a nudge falls off it
 NUDGES = 1  # two found nothing lower than one on any gallery program, at half again the time
-NUDGE_DEGREES = 15.0
-NUDGE_FRACTION = 0.05
+# small: an unstable balance grows any nudge by itself, and resettling a long chain
+# nudged 15 degrees at every joint cost 500 iterations (the reading nook) for nothing lower
+NUDGE_DEGREES = 5.0
+NUDGE_FRACTION = 0.02
 POLISH_ROUNDS = 2  # settles again from the result while it is not yet at rest
 BOUND_TOLERANCE = 1e-6  # a DoF within this fraction of its range from an end rests on that end
 # KKT residual: the unbalanced generalised force per mm of motion, as a fraction of
