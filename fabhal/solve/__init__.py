@@ -147,7 +147,10 @@ def _solve_once(model: Model, options: SolveOptions, loop_start: Array | None) -
         random = rng.uniform(np.where(np.isfinite(low), low, 0.0), np.where(np.isfinite(high), high, 360.0))
         random[list(model.pinned)] = x0[list(model.pinned)]
         if model.closures:
-            random = close_loops(model, options.seed, starts=1, x0=random).x
+            closing = close_loops(model, options.seed, starts=1, x0=random)
+            if not closing.closed:
+                continue  # fitting from an open start would close its loops all over again
+            random = closing.x
         starts.append(random)
 
     free = np.array([i for i in range(len(model.variables)) if i not in model.pinned], dtype=int)
