@@ -23,6 +23,7 @@ from fabhal.optimize import least_squares_objective, minimize
 ENVIRONMENT = -1  # all environment parts act as one rigid link
 MAX_STARTS = 16
 CLOSED_MM = 1e-6  # a loop counts as closed when every residual is below this (mm, or mm-equivalent)
+CLOSE_EVALUATIONS = 200  # per start of the closure solve
 _SLACK_MM = 1e-3  # tolerance on link ranges, as the reference
 
 
@@ -184,9 +185,16 @@ def polygon_feasible(links: list[Link]) -> bool:
 # ---------------------------------------------------------------- closure solve
 
 
-def close_loops(model: Model, seed: int = 0, starts: int = MAX_STARTS, x0: Array | None = None) -> LoopReport:
+def close_loops(
+    model: Model,
+    seed: int = 0,
+    starts: int = MAX_STARTS,
+    x0: Array | None = None,
+    evaluations: int = CLOSE_EVALUATIONS,
+) -> LoopReport:
     """Find DoFs that close every loop: least squares from `x0` (the defaults),
-    then from seeded random starts; stops at the first start that closes them all."""
+    then from seeded random starts, each for at most `evaluations`; stops at
+    the first start that closes them all."""
     x0 = model.x_default() if x0 is None else x0
     if not model.closures:
         return LoopReport(x0, True, 0.0, 0.0)
@@ -213,7 +221,7 @@ def close_loops(model: Model, seed: int = 0, starts: int = MAX_STARTS, x0: Array
             start,
             low[free],
             high[free],
-            max_evaluations=200,
+            max_evaluations=evaluations,
             stop_below=0.5 * (0.01 * CLOSED_MM) ** 2,
         )
         cost = float(np.abs(residual_and_jacobian(fit.x)[0]).max())

@@ -32,6 +32,9 @@ from fabhal.solve.steps import (
 )
 
 EXTRA_STARTS = 3  # seeded random starts for step 1, besides the spread-out defaults
+# a random start whose loops take longer to close than this is dropped: on the gallery
+# those that close do so within 50 evaluations, and one that fails costs 150 more
+RANDOM_CLOSE_EVALUATIONS = 60
 FALL_RETRIES = 2  # more attempts, from other seeds' starts, when a result falls apart
 # step 2 settles again from this many nudged copies of its result: a gradient method
 # stays on an unstable balance (a hook upside down on its rod); a nudge falls off it
@@ -147,7 +150,9 @@ def _solve_once(model: Model, options: SolveOptions, loop_start: Array | None) -
         random = rng.uniform(np.where(np.isfinite(low), low, 0.0), np.where(np.isfinite(high), high, 360.0))
         random[list(model.pinned)] = x0[list(model.pinned)]
         if model.closures:
-            closing = close_loops(model, options.seed, starts=1, x0=random)
+            closing = close_loops(
+                model, options.seed, starts=1, x0=random, evaluations=RANDOM_CLOSE_EVALUATIONS
+            )
             if not closing.closed:
                 continue  # fitting from an open start would close its loops all over again
             random = closing.x
