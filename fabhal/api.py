@@ -58,7 +58,7 @@ class SolveResult:
 
     status: str  # solved, falls_apart, infeasible, error
     check: CheckResult
-    solution: object | None  # fabhal.solve.Solution (imported lazily: scipy is slow to load)
+    solution: object | None  # fabhal.solve.Solution (imported lazily: `fabhal check` starts faster)
     seed: int
     timing: dict[str, float]
 
