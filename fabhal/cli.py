@@ -421,9 +421,11 @@ _NOT_SOLVED = {"error": "the program has errors", "infeasible": "a loop of the d
 
 def _unknown_format(output: Path | None) -> bool:
     """Say so (before any solving) if `output`'s suffix is not a format `render` writes."""
+    if output is None:
+        return False  # without importing the renderer: `fabhal solve` starts faster
     from fabhal.render import FORMATS
 
-    if output is None or output.suffix.lower() in FORMATS:
+    if output.suffix.lower() in FORMATS:
         return False
     print(
         f"fabhal: cannot render to `{output}`: the suffix picks the format, one of {' '.join(FORMATS)}",
