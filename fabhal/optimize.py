@@ -66,6 +66,7 @@ class Result:
     evaluations: int
     converged: bool
     feasible: bool  # on the equality constraints (always true without them)
+    curvature: Array | None  # the final BFGS matrix (scaled variables); None for least squares
 
 
 def least_squares_objective(residual_and_jacobian: Callable[[Array], tuple[Array, Array]]) -> Objective:
@@ -130,6 +131,7 @@ def minimize(
     stop_below: float = -np.inf,
     deadline: float = np.inf,
     measure_curvature: bool = False,
+    curvature: Array | None = None,
 ) -> Result:
     """Minimise from `start` (clipped to the bounds, projected onto c = 0).
 
@@ -139,7 +141,9 @@ def minimize(
     With `measure_curvature`, BFGS starts from the Hessian of the Lagrangian
     by finite differences (one gradient per variable) instead of a multiple of
     the identity: worth it where the curvature differs a lot between variables
-    (a stiff friction term beside a slow swing) and iterations are dear."""
+    (a stiff friction term beside a slow swing) and iterations are dear; or
+    from `curvature`, a previous result's matrix, when starting near where that
+    one ended (it is measured again only if the line search fails)."""
     scale = np.ones(len(start)) if scale is None else np.asarray(scale, dtype=float)
     problem = _Scaled(objective, equality, linear, scale, low * scale, high * scale)
     u = np.clip(np.asarray(start, dtype=float) * scale, problem.low, problem.high)
@@ -150,7 +154,7 @@ def minimize(
     state = _Iteration(problem, hessian is None)
     if measure_curvature and hessian is None:
         state.measure = lambda at, g, a_at: _lagrangian_hessian(problem, at, g, a_at)
-        state.start_from(state.measure(u, gradient, a))
+        state.start_from(state.measure(u, gradient, a) if curvature is None else curvature)
     stationarity, converged, iterations = np.inf, False, 0
     while iterations < max_iterations:
         iterations += 1
@@ -176,7 +180,16 @@ def minimize(
         if whole and lowered <= ftol * abs(value):
             converged = True
             break
-    return Result(u / scale, value, float(stationarity), iterations, problem.evaluations, converged, feasible)
+    return Result(
+        u / scale,
+        value,
+        float(stationarity),
+        iterations,
+        problem.evaluations,
+        converged,
+        feasible,
+        state.model if state.bfgs else None,
+    )
 
 
 class _Iteration:

@@ -182,7 +182,7 @@ def _solve_once(model: Model, options: SolveOptions, loop_start: Array | None) -
         for _ in range(POLISH_ROUNDS):  # a long loop's flat valley may need more iterations
             if equilibrium <= EQUILIBRIUM_TOLERANCE or not len(movable) or step2.out_of_time():
                 break
-            x = step2.full(settle(step2, energy, x[movable], at_rest))
+            x = step2.full(settle(step2, energy, x[movable], at_rest).x)
             equilibrium, at_bound, falls = _verify(step2, energy, x, masses)
         if equilibrium > EQUILIBRIUM_TOLERANCE:
             notes.append(
@@ -232,10 +232,13 @@ def _settle_stably(
     rng: np.random.Generator,
     at_rest: float,
 ) -> Array:
-    """Settle, then settle again from nudged copies; keep the lowest energy."""
+    """Settle, then settle again from nudged copies; keep the lowest energy. A
+    nudged copy starts near the first result, so its BFGS starts from the first
+    settle's matrix instead of measuring the Hessian again."""
     model, free = problem.model, problem.free
     low, high = problem.bounds()
-    best = problem.full(settle(problem, energy, x[free], at_rest))
+    first = settle(problem, energy, x[free], at_rest)
+    best = problem.full(first.x)
     best_energy = energy(best)[0]
     fraction = np.array([not v.dof.periodic and v.dof.high <= 1.0 for v in model.variables])[free]
     size = np.where(fraction, NUDGE_FRACTION, NUDGE_DEGREES)
@@ -243,7 +246,7 @@ def _settle_stably(
         if problem.out_of_time():
             break
         start = np.clip(best[free] + rng.uniform(-size, size), low, high)
-        candidate = problem.full(settle(problem, energy, start, at_rest))
+        candidate = problem.full(settle(problem, energy, start, at_rest, first.curvature).x)
         value = energy(candidate)[0]
         closed = not model.closures or closure_residual_mm(model, candidate) < 1e-6
         if closed and value < best_energy - 1e-12:

@@ -23,7 +23,7 @@ import numpy as np
 
 from fabhal.kinematics.frames import Array
 from fabhal.model import Model
-from fabhal.optimize import Linear, Objective, least_squares_objective, minimize
+from fabhal.optimize import Linear, Objective, Result, least_squares_objective, minimize
 from fabhal.solve import target as target_mod
 from fabhal.solve.spacing import Spacing, spacing_jacobian, spacing_values
 
@@ -110,7 +110,8 @@ class Problem:
         ftol: float = 0.0,
         gtol: float = 0.0,
         measure_curvature: bool = False,
-    ) -> Array:
+        curvature: Array | None = None,
+    ) -> Result:
         """The optimiser on this problem: bounds, loops, spacing, millimetres, time limit."""
         low, high = self.bounds()
         return minimize(
@@ -127,7 +128,8 @@ class Problem:
             gtol=gtol,
             deadline=self.deadline,
             measure_curvature=measure_curvature,
-        ).x
+            curvature=curvature,
+        )
 
     def out_of_time(self) -> bool:
         return time.monotonic() > self.deadline
@@ -152,7 +154,7 @@ def fit_target(problem: Problem, goal: target_mod.TargetGoal, starts: list[Array
     objective = least_squares_objective(residual_and_jacobian)
 
     def fit(start: Array, evaluations: int) -> tuple[Array, float]:
-        v = problem.minimize(objective, start, max_evaluations=evaluations, ftol=FIT_FTOL)
+        v = problem.minimize(objective, start, max_evaluations=evaluations, ftol=FIT_FTOL).x
         r = residual_and_jacobian(v)[0]
         return v, float(r @ r) if _feasible(problem, v) else np.inf
 
@@ -245,10 +247,16 @@ def _carried_weight(model: Model, joint: int, weights: Array) -> float:
 
 
 def settle(
-    problem: Problem, energy: Callable[[Array], tuple[float, Array]], start: Array, at_rest: float
-) -> Array:
-    """Free DoFs at rest: minimum potential energy under the constraints, stopped
-    once no generalised force (joules per mm of motion) exceeds `at_rest`."""
+    problem: Problem,
+    energy: Callable[[Array], tuple[float, Array]],
+    start: Array,
+    at_rest: float,
+    curvature: Array | None = None,
+) -> Result:
+    """Free DoFs at rest (`.x`): minimum potential energy under the constraints,
+    stopped once no generalised force (joules per mm of motion) exceeds
+    `at_rest`. BFGS starts from the measured Hessian, or from `curvature` (an
+    earlier settle's `.curvature`) when starting near where that one ended."""
 
     def objective(v: Array) -> tuple[float, Array, None]:
         value, gradient = energy(problem.full(v))
@@ -256,7 +264,9 @@ def settle(
 
     # a long loop settles slowly (its energy valley is flat): more DoFs, more iterations
     iterations = max(SETTLE_ITERATIONS, 12 * len(problem.free))
-    return problem.minimize(objective, start, max_iterations=iterations, gtol=at_rest, measure_curvature=True)
+    return problem.minimize(
+        objective, start, max_iterations=iterations, gtol=at_rest, measure_curvature=True, curvature=curvature
+    )
 
 
 def mm_per_unit(model: Model) -> Array:
