@@ -132,14 +132,11 @@ class Model:
         else:
             local, d_local = layout.local_frames(x), None
         frames = layout.environment_frames.copy()
-        inverse_local = invert(local)
+        edges = layout.edges
+        # child in parent for every edge in one product; then one product per level
+        relative = local[edges.parent_side] @ edges.offset @ invert(local[edges.child_side])
         for level in layout.levels:  # all parts at one depth of the tree at once
-            frames[level.child] = (
-                frames[level.parent]
-                @ local[level.parent_side]
-                @ level.offset
-                @ inverse_local[level.child_side]
-            )
+            frames[level.child] = frames[level.parent] @ relative[level.edges]
         if d_local is None:
             return Forward(frames, local, None, None)
         # the twist of a DoF turns its side's part about that side's connector:
@@ -255,9 +252,16 @@ class TreeLevel:
 
     parent: Array  # (m,) part indices
     child: Array
-    parent_side: Array  # (m,) side indices
+    edges: slice  # these edges in `TreeEdges`
+
+
+@dataclass(frozen=True)
+class TreeEdges:
+    """Every tree edge, level by level: what places each child relative to its parent."""
+
+    parent_side: Array  # (e,) side indices
     child_side: Array
-    offset: Array  # (m, 4, 4) alignment, oriented parent -> child
+    offset: Array  # (e, 4, 4) alignment, oriented parent -> child
 
 
 @dataclass(frozen=True)
@@ -269,6 +273,7 @@ class ChainLayout:
     n_dofs: int
     environment_frames: Array  # (n_parts, 4, 4); identity for parts the tree places
     levels: tuple[TreeLevel, ...]
+    edges: TreeEdges
     dof_side: Array  # (n_dofs,) side of each DoF
     dof_part: Array  # (n_dofs,) part of that side
     tree_sign: Array  # (n_dofs,) +1 parent side, -1 child side, 0 off the tree
@@ -363,7 +368,7 @@ def _chain_layout(model: Model) -> ChainLayout:
         len(sides),
         n_dofs,
         environment_frames,
-        _tree_levels(model),
+        *_tree_levels(model),
         dof_side,
         np.array([sides[s].part for s in dof_side], dtype=int),
         tree_sign,
@@ -391,27 +396,34 @@ def _subtrees(model: Model) -> dict[int, set[int]]:
     return subtrees
 
 
-def _tree_levels(model: Model) -> tuple[TreeLevel, ...]:
+def _tree_levels(model: Model) -> tuple[tuple[TreeLevel, ...], TreeEdges]:
     depth = {i: 0 for i, p in enumerate(model.parts) if p.environment}
-    levels: dict[int, list[tuple[int, int, int, int, Array]]] = {}
+    by_depth: dict[int, list[tuple[int, int, int, int, Array]]] = {}
     for edge in model.tree:  # parents come before children
         joint = model.joints[edge.joint]
         parent, child = model.placed_sides(edge)
         offset = joint.offset if edge.parent_side == "a" else joint.offset.T
         parent_side = 2 * joint.index + (0 if edge.parent_side == "a" else 1)
         depth[child.part] = depth[parent.part] + 1
-        levels.setdefault(depth[child.part], []).append(
+        by_depth.setdefault(depth[child.part], []).append(
             (parent.part, child.part, parent_side, parent_side ^ 1, offset)
         )
-    return tuple(
-        TreeLevel(
-            np.array([e[0] for e in edges], dtype=int),
-            np.array([e[1] for e in edges], dtype=int),
-            np.array([e[2] for e in edges], dtype=int),
-            np.array([e[3] for e in edges], dtype=int),
-            np.array([e[4] for e in edges]),
+    ordered = [edges for _, edges in sorted(by_depth.items())]
+    levels, start = [], 0
+    for edges in ordered:
+        levels.append(
+            TreeLevel(
+                np.array([e[0] for e in edges], dtype=int),
+                np.array([e[1] for e in edges], dtype=int),
+                slice(start, start + len(edges)),
+            )
         )
-        for _, edges in sorted(levels.items())
+        start += len(edges)
+    flat = [e for edges in ordered for e in edges]
+    return tuple(levels), TreeEdges(
+        np.array([e[2] for e in flat], dtype=int),
+        np.array([e[3] for e in flat], dtype=int),
+        np.array([e[4] for e in flat]).reshape(len(flat), 4, 4),
     )
 
 
