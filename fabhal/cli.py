@@ -116,9 +116,11 @@ examples:
   python bench/run.py                   the same from a checkout
 
 Per program: parse, check and solve times (median over the runs in one
-process; the first run includes importing the solver), the wall time of one
-whole `fabhal solve` process, and whether the targets are met: a process under
-1 s, the solve step under 200 ms (500 ms for programs with loops). The four
+process; the first run includes importing the solver), the wall time of whole
+`fabhal solve` processes (median of 3 with Python's bytecode cache filled, as
+from a second run on; and one cold, compiling fabhal first), and whether the
+targets are met: a process under 1 s, the solve step under 200 ms (500 ms for
+programs with loops). The four
 clip-light programs also run back to back as one row. Writes bench/results.json
 when run from a checkout (or -o FILE). See bench/README.md.
 """
@@ -281,8 +283,8 @@ def build_parser() -> argparse.ArgumentParser:
     bench = commands.add_parser(
         "bench",
         help="time parsing, checking and solving of the gallery programs",
-        description="Benchmark the gallery: per program the parse, check and solve times and one "
-        "whole `fabhal solve` process, against the speed targets.",
+        description="Benchmark the gallery: per program the parse, check and solve times and "
+        "whole `fabhal solve` processes, against the speed targets.",
         epilog=BENCH_EPILOG,
         formatter_class=formatter,
     )

@@ -19,6 +19,7 @@ def test_bench_records_each_stage_and_the_targets(tmp_path: Path) -> None:
     assert row.solve_target_s == bench.SOLVE_WITH_LOOPS_TARGET_S  # it has a loop
     assert 0 < row.parse_s and 0 < row.check_s and 0 < row.solve_s
     assert row.process_s is not None and row.process_s > row.solve_s  # a process also starts Python
+    assert row.cold_process_s is not None and row.cold_process_s > row.solve_s
     data = json.loads(out.read_text())
     assert data["runs"] == 2 and data["machine"]["cpus"] >= 1
     (recorded,) = data["rows"]
@@ -41,7 +42,8 @@ def test_bench_command_prints_the_table(tmp_path: Path) -> None:
     run = fabhal("bench", "-n", "1", "--no-process", "programs/demo.fhl", "-o", str(out))
     assert run.returncode == 0, run.stderr
     assert "demo" in run.stdout and "solve ms" in run.stdout
-    assert json.loads(out.read_text())["rows"][0]["process_s"] is None
+    recorded = json.loads(out.read_text())["rows"][0]
+    assert recorded["process_s"] is None and recorded["cold_process_s"] is None
 
 
 def test_bench_command_refuses_a_missing_program() -> None:
