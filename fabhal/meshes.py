@@ -3,6 +3,10 @@
 Mass = mesh volume x material density (g/cm3 -> grams), unless the part has a
 `mass` line; the centre of mass is the mesh's centroid (uniform density).
 Meshes load lazily (trimesh is imported only here) and are cached per file.
+A directory of meshes may carry `measures.json` (the library's does): each
+file's volume, centroid and bounds with the file's SHA-256, so solving with
+library parts never loads a mesh, even on a first run. Regenerate it with
+`python -m fabhal.meshes DIRECTORY`; tests/test_meshes.py checks it.
 """
 
 from __future__ import annotations
@@ -22,6 +26,8 @@ from fabhal.primitives import Primitive
 if TYPE_CHECKING:
     import trimesh
 
+MEASURES_FILE = "measures.json"
+MESH_SUFFIXES = (".obj", ".stl", ".glb", ".ply", ".off")
 _ARC_SEGMENTS_PER_TURN = 48
 _WIRE_SEGMENTS = 12
 
@@ -185,6 +191,10 @@ def _mesh_measures(spec: PartSpec) -> Measures:
 
     from fabhal import resources
 
+    if spec.mesh is not None:
+        shipped = _shipped_measures(spec.mesh)
+        if shipped is not None:
+            return shipped
     digest = hashlib.sha256(_file_digest(Path(__file__)))
     digest.update(_file_digest(spec.mesh) if spec.mesh is not None else repr(spec.primitives).encode())
     directory = resources.cache_dir()
@@ -195,10 +205,8 @@ def _mesh_measures(spec: PartSpec) -> Measures:
             return float(volume), tuple(centroid), (tuple(low), tuple(high))  # type: ignore[return-value]
         except (ValueError, TypeError, OSError):
             pass  # damaged: measure again
-    mesh = part_mesh(spec)
-    volume, centroid = volume_and_centroid(np.asarray(mesh.vertices), np.asarray(mesh.faces))
-    low, high = ([float(c) for c in corner] for corner in mesh.bounds)
-    measures = (float(volume), tuple(float(c) for c in centroid), (tuple(low), tuple(high)))
+    measures = _measure(part_mesh(spec))
+    low, high = (list(corner) for corner in measures[2])
     if path is not None:
         try:
             temporary = path.with_suffix(f".{os.getpid()}.tmp")
@@ -209,6 +217,49 @@ def _mesh_measures(spec: PartSpec) -> Measures:
     return measures  # type: ignore[return-value]
 
 
+def _measure(mesh: trimesh.Trimesh) -> Measures:
+    volume, centroid = volume_and_centroid(np.asarray(mesh.vertices), np.asarray(mesh.faces))
+    low, high = (tuple(float(c) for c in corner) for corner in mesh.bounds)
+    return float(volume), tuple(float(c) for c in centroid), (low, high)  # type: ignore[return-value]
+
+
+def _shipped_measures(mesh: Path) -> Measures | None:
+    """The measures in `measures.json` beside the mesh, if it lists this very file."""
+    entry = _measures_table(mesh.parent).get(mesh.name)
+    if not isinstance(entry, dict) or entry.get("sha256") != _file_digest(mesh).hex():
+        return None
+    try:
+        low, high = entry["bounds"]
+        return float(entry["volume"]), tuple(entry["centroid"]), (tuple(low), tuple(high))
+    except (KeyError, TypeError, ValueError):
+        return None
+
+
+@lru_cache(maxsize=16)
+def _measures_table(directory: Path) -> dict[str, object]:
+    import json
+
+    try:
+        table = json.loads((directory / MEASURES_FILE).read_text())
+    except (OSError, ValueError):
+        return {}
+    return table if isinstance(table, dict) else {}
+
+
+def measure_directory(directory: Path) -> dict[str, dict[str, object]]:
+    """`measures.json`'s content for every mesh file in `directory`."""
+    table: dict[str, dict[str, object]] = {}
+    for path in sorted(p for p in directory.iterdir() if p.suffix.lower() in MESH_SUFFIXES):
+        volume, centroid, bounds = _measure(load_mesh(path))
+        table[path.name] = {
+            "sha256": _file_digest(path).hex(),
+            "volume": volume,
+            "centroid": list(centroid),
+            "bounds": [list(corner) for corner in bounds],
+        }
+    return table
+
+
 @lru_cache(maxsize=256)
 def _file_digest(path: Path) -> bytes:
     """SHA-256 of a file, once per process: every solve attempt asks again for
@@ -216,3 +267,11 @@ def _file_digest(path: Path) -> bytes:
     import hashlib
 
     return hashlib.sha256(path.read_bytes()).digest()
+
+
+if __name__ == "__main__":  # python -m fabhal.meshes DIRECTORY: write DIRECTORY/measures.json
+    import json
+    import sys
+
+    target = Path(sys.argv[1])
+    (target / MEASURES_FILE).write_text(json.dumps(measure_directory(target), indent=1) + "\n")

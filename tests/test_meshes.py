@@ -2,12 +2,23 @@
 
 from __future__ import annotations
 
+import json
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
 
-from fabhal.meshes import mass_properties, part_mesh, primitive_mesh
+from fabhal import resources
+from fabhal.meshes import (
+    MEASURES_FILE,
+    _measures_table,
+    _shipped_measures,
+    mass_properties,
+    measure_directory,
+    part_mesh,
+    primitive_mesh,
+)
 from fabhal.primitives import make_primitive
 from tests.test_primitives import HERE, library, part
 
@@ -50,3 +61,37 @@ def test_a_part_without_a_mesh_is_drawn_from_its_primitives() -> None:
     mesh = part_mesh(spec)
     half_length = 43.5 + extension / 2
     assert mesh.bounds[0][1] < -half_length + 1 and mesh.bounds[1][1] > half_length - 1
+
+
+def test_the_shipped_measures_are_the_library_meshes_own() -> None:
+    """stdlib_parts/meshes/measures.json lists every mesh with its digest and the
+    measures computed from it (regenerate: python -m fabhal.meshes stdlib_parts/meshes).
+    1e-9 relative: the same numpy sums on the same file, written as JSON floats."""
+    directory = resources.stdlib_dir() / "meshes"
+    shipped = json.loads((directory / MEASURES_FILE).read_text())
+    measured = measure_directory(directory)
+    assert sorted(shipped) == sorted(measured)
+    for name, entry in measured.items():
+        assert shipped[name]["sha256"] == entry["sha256"], name
+        np.testing.assert_allclose(shipped[name]["volume"], entry["volume"], rtol=1e-9)
+        np.testing.assert_allclose(shipped[name]["centroid"], entry["centroid"], rtol=1e-9, atol=1e-9)
+
+
+def test_a_mesh_that_changed_is_measured_again(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """A measures.json entry whose digest does not match the file is ignored: the
+    mass comes from the file itself (here a 10 mm cube, 1000 mm3)."""
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "cache"))
+    cube = tmp_path / "cube.obj"
+    corners = [(x, y, z) for x in (0, 10) for y in (0, 10) for z in (0, 10)]
+    faces = [(1, 3, 4, 2), (5, 6, 8, 7), (1, 2, 6, 5), (3, 7, 8, 4), (1, 5, 7, 3), (2, 4, 8, 6)]
+    cube.write_text(
+        "".join(f"v {x} {y} {z}\n" for x, y, z in corners)
+        + "".join(f"f {a} {b} {c} {d}\n" for a, b, c, d in faces)
+    )
+    stale = {"sha256": "0" * 64, "volume": 5.0, "centroid": [0, 0, 0], "bounds": [[0, 0, 0], [1, 1, 1]]}
+    (tmp_path / MEASURES_FILE).write_text(json.dumps({"cube.obj": stale}))
+    assert _shipped_measures(cube) is None
+    (tmp_path / MEASURES_FILE).write_text(json.dumps(measure_directory(tmp_path)))
+    _measures_table.cache_clear()
+    volume, centroid, _ = _shipped_measures(cube)  # type: ignore[misc]
+    assert volume == pytest.approx(1000.0) and centroid == pytest.approx((5.0, 5.0, 5.0))
