@@ -132,6 +132,8 @@ def minimize(
     deadline: float = np.inf,
     measure_curvature: bool = False,
     curvature: Array | None = None,
+    stalled: Callable[[list[float]], bool] | None = None,
+    max_step: float = np.inf,
 ) -> Result:
     """Minimise from `start` (clipped to the bounds, projected onto c = 0).
 
@@ -143,7 +145,11 @@ def minimize(
     the identity: worth it where the curvature differs a lot between variables
     (a stiff friction term beside a slow swing) and iterations are dear; or
     from `curvature`, a previous result's matrix, when starting near where that
-    one ended (it is measured again only if the line search fails)."""
+    one ended (it is measured again only if the line search fails).
+    No step moves a scaled variable more than `max_step` (a trust radius: a
+    nearly singular model proposes steps that take many halvings to shorten).
+    `stalled` sees f after every accepted step and may end the search when
+    the progress is no longer worth its cost (the caller's units and taste)."""
     scale = np.ones(len(start)) if scale is None else np.asarray(scale, dtype=float)
     problem = _Scaled(objective, equality, linear, scale, low * scale, high * scale)
     u = np.clip(np.asarray(start, dtype=float) * scale, problem.low, problem.high)
@@ -152,10 +158,12 @@ def minimize(
         u, c, a, feasible = _close(problem, u)
     value, gradient, hessian = problem.evaluate(u)
     state = _Iteration(problem, hessian is None)
+    state.max_step = max_step
     if measure_curvature and hessian is None:
         state.measure = lambda at, g, a_at: _lagrangian_hessian(problem, at, g, a_at)
         state.start_from(state.measure(u, gradient, a) if curvature is None else curvature)
     stationarity, converged, iterations = np.inf, False, 0
+    history = [value]
     while iterations < max_iterations:
         iterations += 1
         step, stationarity = state.step(u, gradient, hessian, a, c)
@@ -176,9 +184,12 @@ def minimize(
         state.learn(u_new - u, gradient_new - gradient, a_new - a, hessian)
         lowered = value - value_new
         u, a, value, gradient, feasible = u_new, a_new, value_new, gradient_new, True
+        history.append(value)
         # a step cut short by a bound or a spacing says nothing about convergence
         if whole and lowered <= ftol * abs(value):
             converged = True
+            break
+        if stalled is not None and stalled(history):
             break
     return Result(
         u / scale,
@@ -211,6 +222,7 @@ class _Iteration:
         self.multipliers = np.zeros(0)  # of the equality constraints, for the secant updates
         self.fixed = np.zeros(n, dtype=bool)
         self.hessian = np.zeros((n, n))  # of the quadratic model of the last step
+        self.max_step = np.inf  # longest move of a scaled variable in one step
         self.gauss_newton = np.zeros((n, n))  # J^T J at the last point (least squares)
         self.corrected = False  # least squares: whether the model includes S (NL2SOL's choice)
         # measures the Hessian of the Lagrangian at (u, gradient, dc/du), if BFGS should start from it
@@ -291,7 +303,7 @@ class _Iteration:
         projected back onto the loops: (point, c, dc/du, f, its gradient, its
         Hessian, whether the whole step was taken), or None when nothing is lower."""
         problem = self.problem
-        alpha = min(1.0, _longest(problem, u, step))
+        alpha = min(1.0, _longest(problem, u, step), self.max_step / max(float(np.abs(step).max()), 1e-300))
         g_rows, h = problem.linear_rows()
         while alpha > 1e-10:
             clipped = np.clip(u + alpha * step, problem.low, problem.high)
