@@ -178,12 +178,14 @@ class Model:
         )  # (k, i, 12)
         return rows.transpose(0, 2, 1).reshape(n_closures * 12, n_dofs)
 
-    def point_derivatives(self, fwd: Forward, part: int, point: Array) -> Array:
-        """(n_dofs, 3): d(world position of `point`, given in `part`'s frame) / dx."""
+    def weighted_height_gradient(self, fwd: Forward, weights: Array, points: Array) -> Array:
+        """(n_dofs,): d(sum_p weights[p] * world z of points[p], given in part p's frame) / dx,
+        for all parts at once (the potential energy's gradient)."""
         assert fwd.twists is not None
-        world = fwd.frames[part][:3, :3] @ point + fwd.frames[part][:3, 3]
-        moving = self.layout.moves[:, part, None]
-        return moving * (fwd.twists[:, :3, :3] @ world + fwd.twists[:, :3, 3])
+        world = np.einsum("pij,pj->pi", fwd.frames[:, :3, :3], points) + fwd.frames[:, :3, 3]
+        weighted = self.layout.moves * weights  # (n_dofs, n_parts)
+        along = np.einsum("ij,ij->i", fwd.twists[:, 2, :3], weighted @ world)
+        return along + fwd.twists[:, 2, 3] * weighted.sum(axis=1)
 
     def frame_derivatives(self, fwd: Forward, part: int) -> Array:
         """(n_dofs, 4, 4): d(part-to-world frame of `part`) / dx."""

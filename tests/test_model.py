@@ -109,6 +109,27 @@ def test_batched_jacobians_match_finite_differences(program: str) -> None:
         np.testing.assert_allclose(analytic, numeric, atol=1e-4 * np.abs(numeric).max())
 
 
+@pytest.mark.parametrize("program", DERIVATIVE_PROGRAMS)
+def test_weighted_height_gradient_matches_finite_differences(program: str) -> None:
+    """The potential energy's gradient (all parts at once) against central
+    differences of the weighted heights; same tolerance argument as above."""
+    model = model_of(REPO / "programs" / f"{program}.fhl")
+    rng = np.random.default_rng(11)
+    low, high = model.bounds()
+    x = rng.uniform(np.where(np.isfinite(low), low, 0.0), np.where(np.isfinite(high), high, 360.0))
+    weights = rng.uniform(0.5, 2.0, len(model.parts))
+    points = rng.uniform(-50.0, 50.0, (len(model.parts), 3))
+
+    def weighted_height(u: np.ndarray) -> np.ndarray:
+        frames = model.part_frames(u)
+        heights = np.einsum("pj,pj->p", frames[:, 2, :3], points) + frames[:, 2, 3]
+        return np.array([weights @ heights])
+
+    numeric = _numeric_derivative(weighted_height, x)[0]
+    analytic = model.weighted_height_gradient(model.forward(x, with_twists=True), weights, points)
+    np.testing.assert_allclose(analytic, numeric, atol=1e-4 * np.abs(numeric).max())
+
+
 def test_batched_frames_match_one_connection_at_a_time() -> None:
     """The level-by-level batched product equals composing each tree edge alone
     (the formula of the module docstring), to rounding (1e-9 mm)."""

@@ -93,11 +93,11 @@ def matrix_euler(matrix: ArrayLike) -> Array:
 def invert(matrix: ArrayLike) -> Array:
     """(..., 4, 4) rigid transform -> its inverse (transpose the rotation)."""
     m = np.asarray(matrix, dtype=float)
-    out = np.zeros_like(m)
+    out = np.empty_like(m)
     rotation_t = np.swapaxes(m[..., :3, :3], -1, -2)
     out[..., :3, :3] = rotation_t
     out[..., :3, 3] = -(rotation_t @ m[..., :3, 3:4])[..., 0]
-    out[..., 3, 3] = 1.0
+    out[..., 3, :] = (0.0, 0.0, 0.0, 1.0)
     return out
 
 

@@ -206,10 +206,7 @@ def potential(model: Model, masses: Array, centres: Array) -> Callable[[Array], 
     def energy(x: Array) -> tuple[float, Array]:
         fwd = model.forward(x, with_twists=True)
         heights = np.einsum("pj,pj->p", fwd.frames[:, 2, :3], centres) + fwd.frames[:, 2, 3]
-        grad = np.zeros(len(x))
-        for part in np.flatnonzero(weights):
-            grad += weights[part] * model.point_derivatives(fwd, int(part), centres[part])[:, 2]
-        return float(weights @ heights), grad
+        return float(weights @ heights), model.weighted_height_gradient(fwd, weights, centres)
 
     return energy
 
