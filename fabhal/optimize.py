@@ -159,9 +159,13 @@ def minimize(
     value, gradient, hessian = problem.evaluate(u)
     state = _Iteration(problem, hessian is None)
     state.max_step = max_step
-    if measure_curvature and hessian is None:
-        state.measure = lambda at, g, a_at: _lagrangian_hessian(problem, at, g, a_at)
-        state.start_from(state.measure(u, gradient, a) if curvature is None else curvature)
+    if hessian is None:
+        if measure_curvature:
+            state.measure = lambda at, g, a_at: _lagrangian_hessian(problem, at, g, a_at)
+        if curvature is not None:
+            state.start_from(curvature)
+        elif state.measure is not None:
+            state.start_from(state.measure(u, gradient, a))
     stationarity, converged, iterations = np.inf, False, 0
     history = [value]
     while iterations < max_iterations:

@@ -153,3 +153,41 @@ def test_stop_below_ends_the_search_early(stop: float) -> None:
         least_squares_objective(rosenbrock_residual), np.array([-1.2, 1.0]), *FREE, stop_below=stop
     )
     assert result.converged and result.value <= stop
+
+
+def test_no_step_is_longer_than_the_trust_radius() -> None:
+    visited: list[np.ndarray] = []
+
+    def recorded(x: np.ndarray) -> tuple[float, np.ndarray, None]:
+        visited.append(x.copy())
+        return rosenbrock(x)
+
+    result = minimize(recorded, np.array([-1.2, 1.0]), *FREE, gtol=1e-8, max_iterations=2000, max_step=0.1)
+    assert np.allclose(result.x, [1.0, 1.0], atol=1e-5)
+    # every point tried is within 0.1 (per variable) of a point tried before it
+    for k in range(1, len(visited)):
+        nearest = min(float(np.abs(visited[k] - earlier).max()) for earlier in visited[:k])
+        assert nearest <= 0.1 + 1e-12
+
+
+def test_a_known_hessian_starts_bfgs_at_newton() -> None:
+    """On a quadratic, BFGS started from the exact Hessian takes the Newton step."""
+    matrix = np.array([[4.0, 1.0], [1.0, 3.0]])
+    target = np.array([0.5, -2.0])
+
+    def quadratic(x: np.ndarray) -> tuple[float, np.ndarray, None]:
+        d = x - target
+        return 0.5 * float(d @ matrix @ d), matrix @ d, None
+
+    result = minimize(quadratic, np.zeros(2), *FREE, gtol=1e-12, curvature=matrix)
+    assert result.iterations <= 2 and np.allclose(result.x, target, atol=1e-10)
+
+
+def test_stalled_ends_the_search() -> None:
+    result = minimize(
+        least_squares_objective(rosenbrock_residual),
+        np.array([-1.2, 1.0]),
+        *FREE,
+        stalled=lambda costs: len(costs) > 3,
+    )
+    assert not result.converged and result.iterations == 3
