@@ -20,7 +20,7 @@ from fabhal.kinematics.frames import Array
 from fabhal.meshes import mass_properties
 from fabhal.model import Joint, Model
 from fabhal.solve import target as target_mod
-from fabhal.solve.spacing import spacing_constraints, spacing_values, spread
+from fabhal.solve.spacing import Spacing, spacing_constraints, spacing_values, spread
 from fabhal.solve.steps import (
     Problem,
     closure_residual_mm,
@@ -135,15 +135,7 @@ def _solve_once(model: Model, options: SolveOptions, loop_start: Array | None) -
     x0 = model.x_default()
     spacing = spacing_constraints(model, spread(spacing_constraints(model, x0), x0))
     x0 = spread(spacing, x0)
-    starts = [x0]
-    if model.closures:
-        # the check already closed the loops once; reuse that unless it breaks the spacing
-        reusable = loop_start is not None and (
-            not spacing or float(spacing_values(spacing, loop_start).min()) > -1e-6
-        )
-        starts[0] = (
-            loop_start if reusable and loop_start is not None else close_loops(model, options.seed, x0=x0).x
-        )
+    starts = [_first_start(model, x0, spacing, loop_start, options.seed) if model.closures else x0]
     low, high = model.bounds()
     # with loops every start is closed first and fitted under constraints: fewer, dearer starts
     for _ in range(EXTRA_STARTS if not model.closures else 1):
@@ -213,6 +205,25 @@ def _solve_once(model: Model, options: SolveOptions, loop_start: Array | None) -
         falls,
         tuple(diagnostics),
     )
+
+
+def _first_start(
+    model: Model, x0: Array, spacing: list[Spacing], loop_start: Array | None, seed: int
+) -> Array:
+    """Step 1's first start with loops: the check's closed loops when they keep
+    the spacing; else those loops with the shared primitives' parts spread out
+    and closed again from there (a few Newton steps: only the spread DoFs
+    moved); else closed from the spread defaults."""
+    if loop_start is not None:
+        if not spacing or float(spacing_values(spacing, loop_start).min()) > -1e-6:
+            return loop_start
+        spaced = sorted({i for c in spacing for i in (c.first, c.second)})
+        shifted = loop_start.copy()
+        shifted[spaced] = x0[spaced]
+        closing = close_loops(model, seed, starts=1, x0=shifted, evaluations=RANDOM_CLOSE_EVALUATIONS)
+        if closing.closed and float(spacing_values(spacing, closing.x).min()) > -1e-6:
+            return closing.x
+    return close_loops(model, seed, x0=x0).x
 
 
 def _distinct(starts: list[Array]) -> list[Array]:
