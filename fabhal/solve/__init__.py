@@ -33,8 +33,8 @@ from fabhal.solve.steps import (
 
 EXTRA_STARTS = 3  # seeded random starts for step 1, besides the spread-out defaults
 # a random start whose loops take longer to close than this is dropped: on the gallery
-# those that close do so within 50 evaluations, and one that fails costs 150 more
-RANDOM_CLOSE_EVALUATIONS = 60
+# those that close do so within 26 evaluations, and one that fails spends the whole budget
+RANDOM_CLOSE_EVALUATIONS = 40
 FALL_RETRIES = 2  # more attempts, from other seeds' starts, when a result falls apart
 # step 2 settles again from this many nudged copies of its result: a gradient method
 # stays on an unstable balance (a hook upside down on its rod); a nudge falls off it
