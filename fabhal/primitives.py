@@ -280,7 +280,14 @@ FrameFormula = Callable[[Mapping[str, float | Array], Array], Array]
 
 
 def _rod(p: Mapping[str, float | Array], x: Array) -> Array:
-    return translation(0.0, p["radius"], (x[..., 0] - 0.5) * p["length"]) @ rot_x(x[..., 1] - 180.0)
+    # T(0, r, (t - 0.5) L) @ Rx(phi - 180), written out (hot in the solver, as `_arc`)
+    phi = np.radians(x[..., 1])
+    c, s = -np.cos(phi), -np.sin(phi)  # of phi - 180
+    out = np.zeros((*phi.shape, 4, 4))
+    out[..., 0, 0] = out[..., 3, 3] = 1.0
+    out[..., 1, 1], out[..., 1, 2], out[..., 1, 3] = c, -s, p["radius"]
+    out[..., 2, 1], out[..., 2, 2], out[..., 2, 3] = s, c, (x[..., 0] - 0.5) * p["length"]
+    return out
 
 
 _AXIS_TO_Y = rot_x(-90.0)  # a centre-line connector's y runs along the primitive's axis
@@ -320,7 +327,17 @@ def _arc(p: Mapping[str, float | Array], x: Array) -> Array:
 
 
 def _arc_flex(p: Mapping[str, float | Array], x: Array) -> Array:
-    return _arc(p, x) @ rot_z(x[..., 1] - 90.0)
+    # `_arc` @ Rz(phi - 90), written out
+    rho = p["arc_radius"] - p["thickness"]
+    theta, phi = np.radians(x[..., 0]), np.radians(x[..., 1] - 90.0)
+    c, s = np.cos(theta), np.sin(theta)
+    cz, sz = np.cos(phi), np.sin(phi)
+    out = np.zeros((*theta.shape, 4, 4))
+    out[..., 3, 3] = 1.0
+    out[..., 0, 0], out[..., 0, 1] = cz, -sz
+    out[..., 1, 0], out[..., 1, 1], out[..., 1, 2], out[..., 1, 3] = c * sz, c * cz, s, -rho * s
+    out[..., 2, 0], out[..., 2, 1], out[..., 2, 2], out[..., 2, 3] = -s * sz, -s * cz, c, -rho * c
+    return out
 
 
 def _ring_centerline(p: Mapping[str, float | Array], x: Array) -> Array:
