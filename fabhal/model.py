@@ -114,7 +114,14 @@ class Model:
         if last is not None and (last.twists is not None or not with_twists):
             return last
         result = self._forward(x, with_twists)
-        for array in (result.frames, result.local, result.twists, result.own_twists):
+        for array in (
+            result.frames,
+            result.local,
+            result.twists,
+            result.own_twists,
+            result.closure_a_inverse,
+            result.closure_b,
+        ):
             if array is not None:
                 array.setflags(write=False)  # shared with later callers at the same x
         self._last_forward.clear()
@@ -144,14 +151,15 @@ class Model:
         # DoF moves the child against its own connector (the minus sign)
         on_part = frames[layout.dof_part]
         own = on_part @ d_local @ invert(on_part @ local[layout.dof_side])
-        return Forward(frames, local, layout.tree_sign[:, None, None] * own, own)
+        world_a, world_b = layout.closure_worlds(local, frames)
+        return Forward(frames, local, layout.tree_sign[:, None, None] * own, own, invert(world_a), world_b)
 
     def closure_errors(self, x: Array) -> Array:
         """(n_closures, 4, 4): inv(world(a) @ offset) @ world(b), the identity when a loop closes."""
         # with the twists: solvers ask for the Jacobian at the same point next, and reuse them
         fwd = self.forward(x, with_twists=True)
-        world_a, world_b = self.layout.closure_worlds(fwd.local, fwd.frames)
-        return invert(world_a) @ world_b
+        assert fwd.closure_a_inverse is not None and fwd.closure_b is not None
+        return fwd.closure_a_inverse @ fwd.closure_b
 
     def closure_residuals(self, x: Array) -> Array:
         """(n_closures * 12,): per loop the position error (mm) and the rotation
@@ -164,12 +172,11 @@ class Model:
         """(n_closures * 12, n_dofs) exact derivative of `closure_residuals`."""
         layout = self.layout
         fwd = self.forward(x, with_twists=True)
-        assert fwd.own_twists is not None
-        world_a, world_b = layout.closure_worlds(fwd.local, fwd.frames)
+        assert fwd.own_twists is not None and fwd.closure_a_inverse is not None and fwd.closure_b is not None
         # d error = c * inv(world a) @ twist @ world b, c = how the DoF moves b relative to a
         # as broadcast matrix products: a four-operand einsum loops naively (18x slower on the nook)
         d_errors = layout.closure_coefficients[:, :, None, None] * (
-            invert(world_a)[:, None] @ fwd.own_twists[None] @ world_b[:, None]
+            fwd.closure_a_inverse[:, None] @ fwd.own_twists[None] @ fwd.closure_b[:, None]
         )
         n_closures, n_dofs = d_errors.shape[:2]
         rows = np.concatenate(
@@ -218,6 +225,9 @@ class Forward:
     local: Array  # (n_sides, 4, 4) every connector in its part
     twists: Array | None  # (n_dofs, 4, 4) world twist of each tree DoF (zero for the others)
     own_twists: Array | None  # (n_dofs, 4, 4) each DoF's twist of its own side's connector
+    # per loop (with the twists): inv(world of connector a with the offset), world of b
+    closure_a_inverse: Array | None = None
+    closure_b: Array | None = None
 
 
 @dataclass(frozen=True, eq=False)
