@@ -36,7 +36,7 @@ FRICTION = (
 FRICTION_SMOOTHING_MM = 0.5
 CLOSED_MM = 1e-6
 FIT_EVALUATIONS = 200  # for the most promising start of step 1 without loops
-FIT_PROBE_EVALUATIONS = 30  # for each start first
+FIT_PROBE_EVALUATIONS = 20  # for each start first
 FIT_FTOL = 1e-8  # relative decrease of the target cost that ends a fit
 # a start whose target residual (mm, and degrees counted as mm) is this close needs no other start
 GOOD_FIT = 0.5
@@ -150,7 +150,8 @@ def fit_target(problem: Problem, goal: target_mod.TargetGoal, starts: list[Array
 
     Every start is fitted for FIT_PROBE_EVALUATIONS first and only the most
     promising one to FIT_EVALUATIONS: a chain that cannot reach its target
-    converges slowly from every start. A start that fits (GOOD_FIT) ends the search."""
+    converges slowly from every start. A start that fits (GOOD_FIT) ends the
+    search; it is still finished (polished to convergence)."""
     model = problem.model
 
     def residual_and_jacobian(v: Array) -> tuple[Array, Array]:
@@ -174,7 +175,7 @@ def fit_target(problem: Problem, goal: target_mod.TargetGoal, starts: list[Array
         v, cost = fit(start, FIT_PROBE_EVALUATIONS)
         probes.append((cost, v))
         if cost < GOOD_FIT**2:
-            return v, False  # the other starts are there for when this one is stuck far away
+            break  # the other starts are there for when this one is stuck far away
     if not probes:
         return starts[0], True
     cost, best = min(probes, key=lambda probe: probe[0])
