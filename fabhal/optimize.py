@@ -252,16 +252,21 @@ class _Iteration:
         threshold = 1e-12 + 1e-9 * float(np.abs(gradient).max(initial=0.0))
         while True:
             free = ~fixed
-            rows = np.vstack([a[:, free], g_rows[on_linear][:, free]])
-            rhs = np.concatenate([-c, -(g_rows[on_linear] @ u + h[on_linear])])
-            solved = constrained_step(self.hessian[np.ix_(free, free)], gradient[free], rows, rhs)
+            active_rows = np.vstack([a, g_rows[on_linear]]) if on_linear.any() else a
+            rhs = np.concatenate([-c, -(g_rows[on_linear] @ u + h[on_linear])]) if on_linear.any() else -c
+            if free.all():  # no bound active: no copies of the model
+                solved = constrained_step(self.hessian, gradient, active_rows, rhs)
+            else:
+                solved = constrained_step(
+                    self.hessian[np.ix_(free, free)], gradient[free], active_rows[:, free], rhs
+                )
             if solved is None:
                 return None
             d_free, lam, projected = solved
             step = np.zeros(len(u))
             step[free] = d_free
             # multipliers of the active inequalities; a negative one is a constraint to leave
-            push = gradient + self.hessian @ step - np.vstack([a, g_rows[on_linear]]).T @ lam
+            push = gradient + self.hessian @ step - active_rows.T @ lam
             release = np.zeros(len(u))
             release[at_low & fixed] = -push[at_low & fixed]
             release[at_high & fixed] = push[at_high & fixed]
@@ -453,10 +458,10 @@ def constrained_step(
 def _solve_spd(matrix: Array, rhs: Array) -> Array | None:
     """matrix^-1 rhs for a positive definite matrix; None for any other."""
     try:
-        factor = np.linalg.cholesky(matrix)
+        np.linalg.cholesky(matrix)  # the test of definiteness; numpy has no triangular solve
     except np.linalg.LinAlgError:
         return None
-    return np.linalg.solve(factor.T, np.linalg.solve(factor, rhs))
+    return np.linalg.solve(matrix, rhs)
 
 
 def _longest(problem: _Scaled, u: Array, step: Array) -> float:
