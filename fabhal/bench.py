@@ -1,6 +1,7 @@
 """The benchmark: how long each gallery program takes to parse, check and solve.
 
-For every program: the median over N runs in one process of each stage's time
+For every program: the median over N runs in one process (round robin over
+the programs) of each stage's time
 (as `fabhal.api.solve` measures it: parse = reading and parsing the program
 and the part library, check = elaboration and every rule, solve = the
 solver), plus the wall time of whole `fabhal solve` processes: the median of
@@ -32,6 +33,8 @@ SOLVE_TARGET_S = 0.2  # without loops
 SOLVE_WITH_LOOPS_TARGET_S = 0.5
 FAMILY = ("clip_light_xs", "clip_light_s", "clip_light_m", "clip_light_l")
 PROCESS_RUNS = 3  # single process times vary by +-30 % on a shared 2-core machine
+STAGES = ("parse_s", "check_s", "solve_s")
+Timing = dict[str, float]
 
 
 @dataclass(frozen=True)
@@ -52,23 +55,20 @@ class Row:
         return within_process and self.solve_s < self.solve_target_s
 
 
-def bench_program(path: Path, runs: int, whole_process: bool = True) -> Row:
-    results = [api.solve(path) for _ in range(max(runs, 1))]
-    cold = process_wall_time(path, cold=True) if whole_process else None  # before the cache is filled
-    timings = [r.timing for r in results]
-    model = results[-1].check.model
+def program_row(path: Path, timings: Sequence[Timing], last: api.SolveResult, whole_process: bool) -> Row:
+    """One program's row from its in-process timings, plus its whole-process runs."""
+    cold = process_wall_time(path, cold=True) if whole_process else None
+    warm = statistics.median(process_wall_time(path) for _ in range(PROCESS_RUNS)) if whole_process else None
+    model = last.check.model
     loops = len(model.closures) if model is not None else 0
-    return Row(
-        path.stem,
-        loops,
-        results[-1].status,
-        statistics.median(t["parse_s"] for t in timings),
-        statistics.median(t["check_s"] for t in timings),
-        statistics.median(t["solve_s"] for t in timings),
-        statistics.median(process_wall_time(path) for _ in range(PROCESS_RUNS)) if whole_process else None,
-        SOLVE_WITH_LOOPS_TARGET_S if loops else SOLVE_TARGET_S,
-        cold,
-    )
+    parse_s, check_s, solve_s = _medians(timings)
+    target = SOLVE_WITH_LOOPS_TARGET_S if loops else SOLVE_TARGET_S
+    return Row(path.stem, loops, last.status, parse_s, check_s, solve_s, warm, target, cold)
+
+
+def _medians(timings: Sequence[Timing]) -> tuple[float, float, float]:
+    parse_s, check_s, solve_s = (statistics.median(t[k] for t in timings) for k in STAGES)
+    return parse_s, check_s, solve_s
 
 
 def process_wall_time(path: Path, cold: bool = False) -> float:
@@ -97,43 +97,41 @@ def process_wall_time(path: Path, cold: bool = False) -> float:
     return time.perf_counter() - started
 
 
-def bench_family(directory: Path, runs: int) -> Row:
-    """The four clip-light programs solved back to back in one process: a preview
-    of searching a family of designs (each member re-parsed and re-checked)."""
-    paths = [directory / f"{name}.fhl" for name in FAMILY]
-    totals = []
-    for _ in range(runs):
-        timings = [api.solve(p).timing for p in paths]
-        totals.append({k: sum(t[k] for t in timings) for k in ("parse_s", "check_s", "solve_s")})
-    return Row(
-        "clip_light_* (4, back to back)",
-        0,
-        "-",
-        statistics.median(t["parse_s"] for t in totals),
-        statistics.median(t["check_s"] for t in totals),
-        statistics.median(t["solve_s"] for t in totals),
-        None,
-        4 * SOLVE_TARGET_S,
-    )
-
-
 def run(programs: Sequence[Path], runs: int, output: Path | None, whole_process: bool = True) -> list[Row]:
+    """Time every program `runs` times in this process, round robin (a slow spell
+    of a shared machine then costs every program a little instead of one
+    program a lot), the clip-light family as one more member of each round;
+    then each program's whole processes. Prints the table, writes `output`."""
     from rich.console import Console
     from rich.progress import Progress
 
     console = Console(stderr=True)
-    rows: list[Row] = []
+    paths = list(programs)
+    members = [p for p in paths if p.stem in FAMILY]
+    family = sorted(members, key=lambda p: FAMILY.index(p.stem)) if len(members) == len(FAMILY) else []
+    timings: dict[Path, list[Timing]] = {p: [] for p in paths}
+    family_timings: list[Timing] = []
+    last: dict[Path, api.SolveResult] = {}
     with Progress(console=console, transient=True) as progress:
-        task = progress.add_task("benchmarking", total=len(programs) + 1)
-        for path in programs:
-            progress.update(task, description=f"benchmarking {path.stem}")
-            rows.append(bench_program(path, runs, whole_process))
+        task = progress.add_task("benchmarking", total=runs * (len(paths) + 1) + len(paths))
+        for round_number in range(max(runs, 1)):
+            progress.update(task, description=f"round {round_number + 1} of {runs}")
+            for path in paths:
+                last[path] = api.solve(path)
+                timings[path].append(last[path].timing)
+                progress.advance(task)
+            if family:  # a preview of searching a family of designs (each member re-parsed, re-checked)
+                solved = [api.solve(p).timing for p in family]
+                family_timings.append({k: sum(t[k] for t in solved) for k in STAGES})
             progress.advance(task)
-        family = [p for p in programs if p.stem in FAMILY]
-        if len(family) == len(FAMILY):
-            progress.update(task, description="benchmarking the clip-light family")
-            rows.append(bench_family(family[0].parent, runs))
-        progress.advance(task)
+        rows = []
+        for path in paths:
+            progress.update(task, description=f"whole processes: {path.stem}")
+            rows.append(program_row(path, timings[path], last[path], whole_process))
+            progress.advance(task)
+    if family:
+        label = "clip_light_* (4, back to back)"
+        rows.append(Row(label, 0, "-", *_medians(family_timings), None, 4 * SOLVE_TARGET_S))
     Console(width=max(Console().width, 120)).print(table(rows, runs))
     if output is not None:
         output.write_text(json.dumps(results_json(rows, runs), indent=2) + "\n")

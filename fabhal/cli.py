@@ -116,7 +116,7 @@ examples:
   python bench/run.py                   the same from a checkout
 
 Per program: parse, check and solve times (median over the runs in one
-process; the first run includes importing the solver), the wall time of whole
+process, round robin over the programs; the first includes importing the solver), the wall time of whole
 `fabhal solve` processes (median of 3 with Python's bytecode cache filled, as
 from a second run on; and one cold, compiling fabhal first), and whether the
 targets are met: a process under 1 s, the solve step under 200 ms (500 ms for
