@@ -116,11 +116,11 @@ examples:
   python bench/run.py                   the same from a checkout
 
 Per program: parse, check and solve times (median over the runs in one
-process, round robin over the programs; the first includes importing the solver), the wall time of whole
-`fabhal solve` processes (median of 3 with Python's bytecode cache filled, as
-from a second run on; and one cold, compiling fabhal first), and whether the
-targets are met: a process under 1 s, the solve step under 200 ms (500 ms for
-programs with loops). The four
+process, round robin over the programs; the first includes importing the
+solver), the wall time of whole `fabhal solve` processes (median of 3 with
+Python's bytecode cache filled, as from a second run on; and one cold,
+compiling fabhal first), and whether the targets are met: a process under 1 s,
+the solve step under 200 ms (500 ms for programs with loops). The four
 clip-light programs also run back to back as one row. Writes bench/results.json
 when run from a checkout (or -o FILE). See bench/README.md.
 """
