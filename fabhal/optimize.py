@@ -412,11 +412,63 @@ class _Iteration:
         )
 
 
-def _lagrangian_hessian(problem: _Scaled, u: Array, gradient: Array, a: Array) -> Array:
-    """Forward differences of the Lagrangian's gradient, stepping inwards at upper bounds."""
-    multipliers = np.linalg.lstsq(a.T, gradient, rcond=None)[0] if len(a) else np.zeros(0)
+def tangent_curvature(
+    objective: Objective,
+    x: Array,
+    low: Array,
+    high: Array,
+    *,
+    equality: Equality | None = None,
+    linear: Linear | None = None,
+    scale: Array | None = None,
+) -> tuple[Array, Array]:
+    """The curvature of f at x along the constraints active there (c = 0, the
+    bounds x is on, the spacing at 0): eigenvalues of the Lagrangian's Hessian
+    on their tangent space, ascending, in objective units per scaled unit
+    squared, and the matching directions in x (columns). A negative one makes
+    x an unstable balance, and its direction is the way down."""
+    scale = np.ones(len(x)) if scale is None else np.asarray(scale, dtype=float)
+    problem = _Scaled(objective, equality, linear, scale, low * scale, high * scale)
+    u = np.asarray(x, dtype=float) * scale
+    _, gradient, _ = problem.evaluate(u)
+    _, a = problem.constraints(u)
+    g_rows, h = problem.linear_rows()
+    rows = np.vstack([a, g_rows[g_rows @ u + h <= ACTIVE]])
+    rows = np.vstack([rows, np.eye(len(u))[_held_by_bounds(problem, u, gradient, rows)]])
+    # a step long against rounding (the Hessian is read for its sign), short against the
+    # friction's half-millimetre smoothing
+    hessian = _lagrangian_hessian(problem, u, gradient, a, step=1e-2, rows=rows)
+    null = np.eye(len(u))
+    if len(rows):
+        _, singular, right_t = np.linalg.svd(rows, full_matrices=True)
+        rank = int(np.sum(singular > RANK * max(float(singular.max(initial=0.0)), 1e-300)))
+        null = right_t[rank:].T
+    values, vectors = np.linalg.eigh(null.T @ (0.5 * (hessian + hessian.T)) @ null)
+    return values, (null @ vectors) / scale[:, None]
+
+
+def _held_by_bounds(problem: _Scaled, u: Array, gradient: Array, rows: Array) -> Array:
+    """The variables on a bound that the gradient presses against it (a positive
+    multiplier). One on a bound with no force on it (a hook balanced exactly on
+    its tip) is free to leave inwards: its direction stays in the tangent space."""
+    at_low, at_high = problem.on_bounds(u)
+    inside = ~(at_low | at_high)
+    multipliers = np.linalg.lstsq(rows[:, inside].T, gradient[inside], rcond=None)[0] if len(rows) else []
+    push = gradient - rows.T @ multipliers if len(rows) else gradient
+    threshold = 1e-6 * float(np.abs(gradient).max(initial=0.0)) + 1e-300
+    return (at_low & (push > threshold)) | (at_high & (push < -threshold))
+
+
+def _lagrangian_hessian(
+    problem: _Scaled, u: Array, gradient: Array, a: Array, step: float = 1e-4, rows: Array | None = None
+) -> Array:
+    """Forward differences of the Lagrangian's gradient, stepping inwards at upper
+    bounds. The loops' multipliers come from `rows` (the active constraints, the
+    loops first) when given, else from the loops alone. The default step is in
+    scaled units (mm): the friction smoothing is 0.5 mm, the swings far longer."""
+    active = a if rows is None else rows
+    multipliers = np.linalg.lstsq(active.T, gradient, rcond=None)[0][: len(a)] if len(active) else np.zeros(0)
     base = gradient - a.T @ multipliers
-    step = 1e-4  # scaled units (mm): the friction smoothing is 0.5 mm, the swings far longer
     columns = []
     for i in range(len(u)):
         h = -step if u[i] + step > problem.high[i] else step

@@ -12,7 +12,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.optimize import lsq_linear
 
-from fabhal.optimize import Linear, constrained_step, least_squares_objective, minimize
+from fabhal.optimize import Linear, constrained_step, least_squares_objective, minimize, tangent_curvature
 
 FREE = (np.full(2, -np.inf), np.full(2, np.inf))
 
@@ -191,3 +191,31 @@ def test_stalled_ends_the_search() -> None:
         stalled=lambda costs: len(costs) > 3,
     )
     assert not result.converged and result.iterations == 3
+
+
+def height(x: np.ndarray) -> tuple[float, np.ndarray, None]:
+    return float(x[1]), np.array([0.0, 1.0]), None
+
+
+def unit_circle(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    return np.array([x @ x - 1.0]), 2 * x[None, :]
+
+
+@pytest.mark.parametrize(("point", "curvature"), [((0.0, 1.0), -1.0), ((0.0, -1.0), 1.0)])
+def test_curvature_along_the_constraints_tells_a_balance_on_top_from_one_below(
+    point: tuple[float, float], curvature: float
+) -> None:
+    """Height on the unit circle: at the top the Lagrangian's Hessian along the
+    circle is -1 (unstable; the way down is sideways), at the bottom +1.
+    1e-4: forward differences with a 0.01 step."""
+    values, directions = tangent_curvature(height, np.array(point), *FREE, equality=unit_circle)
+    assert values == pytest.approx([curvature], abs=1e-4)
+    assert abs(directions[0, 0]) == pytest.approx(1.0) and abs(directions[1, 0]) < 1e-6
+
+
+def test_a_bound_with_no_force_on_it_does_not_hide_the_way_down() -> None:
+    """On top of the circle with x >= 0 exactly at its bound: nothing presses x
+    against it, so moving inwards (x > 0) is still a way down."""
+    low = np.array([0.0, -np.inf])
+    values, _ = tangent_curvature(height, np.array([0.0, 1.0]), low, FREE[1], equality=unit_circle)
+    assert values[0] == pytest.approx(-1.0, abs=1e-4)

@@ -36,13 +36,13 @@ EXTRA_STARTS = 3  # seeded random starts for step 1, besides the spread-out defa
 # those that close do so within 26 evaluations, and one that fails spends the whole budget
 RANDOM_CLOSE_EVALUATIONS = 40
 FALL_RETRIES = 2  # more attempts, from other seeds' starts, when a result falls apart
-# step 2 settles again from this many nudged copies of its result: a gradient method
-# stays on an unstable balance (a hook upside down on its rod); a nudge falls off it
-NUDGES = 1  # two found nothing lower than one on any gallery program, at half again the time
-# small: an unstable balance grows any nudge by itself, and resettling a long chain
-# nudged 15 degrees at every joint cost 500 iterations (the reading nook) for nothing lower
-NUDGE_DEGREES = 5.0
-NUDGE_FRACTION = 0.02
+# a settled point whose energy curves down along some direction by more than this
+# (x the assembly's weight, joules per mm of motion squared) is an unstable balance,
+# where the gradient vanishes too (a hook upside down on its rod): an upside-down
+# hook with a 1 mm lever arm curves about -3e-4; the gallery's stable results
+# measure above -2e-6 (flat turns, finite differences)
+UNSTABLE_CURVATURE = 1e-4
+NUDGE_MM = 5.0  # the nudge off an unstable balance, along its way down (degrees count as mm)
 POLISH_ROUNDS = 2  # settles again from the result while it is not yet at rest
 BOUND_TOLERANCE = 1e-6  # a DoF within this fraction of its range from an end rests on that end
 # KKT residual: the unbalanced generalised force per mm of motion, as a fraction of
@@ -169,7 +169,7 @@ def _solve_once(model: Model, options: SolveOptions, loop_start: Array | None) -
         at_rest = SETTLE_TOLERANCE * _weight(masses)
         options.report("step 2: settling under gravity")
         if len(movable):
-            x = _settle_stably(step2, energy, x, rng, at_rest)
+            x = _settle_stably(step2, energy, x, at_rest, _weight(masses))
         equilibrium, at_bound, falls = _verify(step2, energy, x, masses)
         for _ in range(POLISH_ROUNDS):  # a long loop's flat valley may need more iterations
             if equilibrium <= EQUILIBRIUM_TOLERANCE or not len(movable) or step2.out_of_time():
@@ -240,23 +240,25 @@ def _settle_stably(
     problem: Problem,
     energy: Callable[[Array], tuple[float, Array]],
     x: Array,
-    rng: np.random.Generator,
     at_rest: float,
+    weight: float,
 ) -> Array:
-    """Settle, then settle again from nudged copies; keep the lowest energy. A
-    nudged copy starts near the first result, so its BFGS starts from the first
-    settle's matrix instead of measuring the Hessian again."""
+    """Settle; if the result is an unstable balance (the energy curves down along
+    the constraints), settle again from a nudge each way along the steepest way
+    down and keep the lowest energy. The nudged settles start near the first
+    result, so BFGS starts from the first settle's matrix."""
     model, free = problem.model, problem.free
     low, high = problem.bounds()
     first = settle(problem, energy, x[free], at_rest)
     best = problem.full(first.x)
     best_energy = energy(best)[0]
-    fraction = np.array([not v.dof.periodic and v.dof.high <= 1.0 for v in model.variables])[free]
-    size = np.where(fraction, NUDGE_FRACTION, NUDGE_DEGREES)
-    for _ in range(NUDGES):
-        if problem.out_of_time():
-            break
-        start = np.clip(best[free] + rng.uniform(-size, size), low, high)
+    values, directions = problem.curvature(energy, first.x)
+    if not len(values) or values[0] >= -UNSTABLE_CURVATURE * weight or problem.out_of_time():
+        return best
+    way_down = directions[:, 0]
+    way_down = way_down * NUDGE_MM / float(np.abs(way_down * mm_per_unit(model)[free]).max())
+    for sign in (1.0, -1.0):
+        start = np.clip(first.x + sign * way_down, low, high)
         candidate = problem.full(settle(problem, energy, start, at_rest, first.curvature).x)
         value = energy(candidate)[0]
         closed = not model.closures or closure_residual_mm(model, candidate) < 1e-6

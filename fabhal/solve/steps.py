@@ -23,7 +23,14 @@ import numpy as np
 
 from fabhal.kinematics.frames import Array
 from fabhal.model import Model
-from fabhal.optimize import Linear, Objective, Result, least_squares_objective, minimize
+from fabhal.optimize import (
+    Linear,
+    Objective,
+    Result,
+    least_squares_objective,
+    minimize,
+    tangent_curvature,
+)
 from fabhal.solve import target as target_mod
 from fabhal.solve.spacing import Spacing, spacing_jacobian, spacing_values
 
@@ -136,6 +143,20 @@ class Problem:
             curvature=curvature,
             stalled=stalled,
             max_step=MAX_STEP_MM,
+        )
+
+    def curvature(self, energy: Callable[[Array], tuple[float, Array]], v: Array) -> tuple[Array, Array]:
+        """The energy's curvature at v along the active constraints: eigenvalues
+        (joules per mm of motion squared, ascending) and directions in v."""
+        low, high = self.bounds()
+        return tangent_curvature(
+            _free_objective(self, energy),
+            v,
+            low,
+            high,
+            equality=self.equality(),
+            linear=self.linear(),
+            scale=mm_per_unit(self.model)[self.free],
         )
 
     def out_of_time(self) -> bool:
@@ -275,15 +296,22 @@ def settle(
     `at_rest`. BFGS starts from the measured Hessian, or from `curvature` (an
     earlier settle's `.curvature`) when starting near where that one ended."""
 
-    def objective(v: Array) -> tuple[float, Array, None]:
-        value, gradient = energy(problem.full(v))
-        return value, gradient[problem.free], None
-
+    objective = _free_objective(problem, energy)
     # a long loop settles slowly (its energy valley is flat): more DoFs, more iterations
     iterations = max(SETTLE_ITERATIONS, 12 * len(problem.free))
     return problem.minimize(
         objective, start, max_iterations=iterations, gtol=at_rest, measure_curvature=True, curvature=curvature
     )
+
+
+def _free_objective(problem: Problem, energy: Callable[[Array], tuple[float, Array]]) -> Objective:
+    """The energy as the optimiser's objective over the problem's free DoFs."""
+
+    def objective(v: Array) -> tuple[float, Array, None]:
+        value, gradient = energy(problem.full(v))
+        return value, gradient[problem.free], None
+
+    return objective
 
 
 def mm_per_unit(model: Model) -> Array:
