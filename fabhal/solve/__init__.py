@@ -29,6 +29,7 @@ from fabhal.solve.steps import (
     potential,
     settle,
     with_friction,
+    with_target_pull,
 )
 
 EXTRA_STARTS = 3  # seeded random starts for step 1, besides the spread-out defaults
@@ -43,6 +44,11 @@ FALL_RETRIES = 2  # more attempts, from other seeds' starts, when a result falls
 # measure above -2e-6 (flat turns, finite differences)
 UNSTABLE_CURVATURE = 1e-4
 NUDGE_MM = 5.0  # the nudge off an unstable balance, along its way down (degrees count as mm)
+# the pull towards the requested frame that picks among equally low configurations
+# (x the weight, joules per mm^2 of target error): at 100 mm off it pulls with 1 % of
+# the weight, which turns a free turn but barely moves what gravity holds, and the
+# assembly settles again without it
+TARGET_PULL = 1e-4
 POLISH_ROUNDS = 2  # settles again from the result while it is not yet at rest
 BOUND_TOLERANCE = 1e-6  # a DoF within this fraction of its range from an end rests on that end
 # KKT residual: the unbalanced generalised force per mm of motion, as a fraction of
@@ -169,7 +175,9 @@ def _solve_once(model: Model, options: SolveOptions, loop_start: Array | None) -
         at_rest = SETTLE_TOLERANCE * _weight(masses)
         options.report("step 2: settling under gravity")
         if len(movable):
-            x = _settle_stably(step2, energy, x, at_rest, _weight(masses))
+            weight = _weight(masses)
+            x, curvature = _settle_stably(step2, energy, x, at_rest, weight)
+            x = _turn_towards_target(step2, energy, goal, x, at_rest, TARGET_PULL * weight, curvature)
         equilibrium, at_bound, falls = _verify(step2, energy, x, masses)
         for _ in range(POLISH_ROUNDS):  # a long loop's flat valley may need more iterations
             if equilibrium <= EQUILIBRIUM_TOLERANCE or not len(movable) or step2.out_of_time():
@@ -242,11 +250,11 @@ def _settle_stably(
     x: Array,
     at_rest: float,
     weight: float,
-) -> Array:
+) -> tuple[Array, Array | None]:
     """Settle; if the result is an unstable balance (the energy curves down along
     the constraints), settle again from a nudge each way along the steepest way
     down and keep the lowest energy. The nudged settles start near the first
-    result, so BFGS starts from the first settle's matrix."""
+    result, so BFGS starts from the first settle's matrix; it is returned too."""
     model, free = problem.model, problem.free
     low, high = problem.bounds()
     first = settle(problem, energy, x[free], at_rest)
@@ -254,7 +262,7 @@ def _settle_stably(
     best_energy = energy(best)[0]
     values, directions = problem.curvature(energy, first.x)
     if not len(values) or values[0] >= -UNSTABLE_CURVATURE * weight or problem.out_of_time():
-        return best
+        return best, first.curvature
     way_down = directions[:, 0]
     way_down = way_down * NUDGE_MM / float(np.abs(way_down * mm_per_unit(model)[free]).max())
     for sign in (1.0, -1.0):
@@ -264,7 +272,27 @@ def _settle_stably(
         closed = not model.closures or closure_residual_mm(model, candidate) < 1e-6
         if closed and value < best_energy - 1e-12:
             best, best_energy = candidate, value
-    return best
+    return best, first.curvature
+
+
+def _turn_towards_target(
+    problem: Problem,
+    energy: Callable[[Array], tuple[float, Array]],
+    goal: target_mod.TargetGoal,
+    x: Array,
+    at_rest: float,
+    strength: float,
+    curvature: Array | None,
+) -> Array:
+    """Of the configurations as low as the settled one (a free turn about the
+    vertical), the one nearest the requested frame: settle with a weak pull
+    towards it, then again without it, so the result is at rest under gravity
+    alone. Kept only if it is no higher and its loops are closed."""
+    pull = with_target_pull(problem.model, energy, goal, strength)
+    pulled = settle(problem, pull, x[problem.free], at_rest, curvature)
+    turned = problem.full(settle(problem, energy, pulled.x, at_rest, pulled.curvature).x)
+    closed = not problem.model.closures or closure_residual_mm(problem.model, turned) < 1e-6
+    return turned if closed and energy(turned)[0] <= energy(x)[0] + 1e-9 else x
 
 
 def _late(options: SolveOptions) -> Diagnostic:

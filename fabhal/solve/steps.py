@@ -273,6 +273,25 @@ def with_friction(
     return total
 
 
+def with_target_pull(
+    model: Model, energy: Callable[[Array], tuple[float, Array]], goal: target_mod.TargetGoal, strength: float
+) -> Callable[[Array], tuple[float, Array]]:
+    """The energy plus a weak spring from the target to its requested frame:
+    strength / 2 x |target residual|^2 (joules; the residual in mm, degrees as mm).
+    Settling with it, then without it, picks among the configurations of equal
+    energy (a part hanging from one point turns about the vertical for free)
+    the one nearest the request, as someone hanging it by hand would."""
+
+    def pulled(x: Array) -> tuple[float, Array]:
+        value, gradient = energy(x)
+        fwd = model.forward(x, with_twists=True)
+        r = target_mod.residual(goal, target_mod.achieved(goal, fwd.frames))
+        pull = target_mod.residual_jacobian(goal, model, fwd).T @ r
+        return value + 0.5 * strength * float(r @ r), gradient + strength * pull
+
+    return pulled
+
+
 def _carried_weight(model: Model, joint: int, weights: Array) -> float:
     """The weight a connection carries (joules per mm): what hangs below it in
     the tree; a connection that closes a loop shares the load, taken as half of

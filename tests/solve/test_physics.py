@@ -11,7 +11,9 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+import pytest
 
+import fabhal.solve as solve_module
 from fabhal import api
 from fabhal.meshes import mass_properties
 from fabhal.solve import Solution
@@ -179,3 +181,22 @@ def test_a_hook_slides_down_a_steep_slope_to_the_end(tmp_path: Path) -> None:
     # 30 degrees: tan 30 = 0.58 > 0.3, it slides down to the closed end and rests there
     placed, settled, at_end = _slide_on_closed_rod(tmp_path, 30.0)
     assert at_end and settled in (0.0, 1.0) and abs(settled - placed) > 0.3
+
+
+def test_of_equally_low_configurations_the_one_nearest_the_request_is_kept(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """The clip light hangs from a chain of rings that turns about the vertical
+    for free. Without the pull towards the request the settled light points
+    wherever the solver's path left it; with it, it turns back towards the
+    request at the same energy (1e-6 J: the settles stop at 1e-4 of the weight
+    per mm) and stays at rest."""
+    program = REPO / "programs" / "clip_light_s.fhl"
+    monkeypatch.setattr(solve_module, "TARGET_PULL", 0.0)
+    loose = api.solve(program).solution
+    monkeypatch.undo()
+    turned = api.solve(program).solution
+    assert loose is not None and turned is not None
+    assert turned.energy == pytest.approx(loose.energy, abs=1e-6)
+    assert turned.target_errors()[1] < loose.target_errors()[1] - 10.0  # degrees
+    assert turned.equilibrium is not None and turned.equilibrium < 1e-3
