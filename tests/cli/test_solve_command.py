@@ -105,3 +105,13 @@ def test_the_solver_says_what_it_is_doing_for_the_status_line() -> None:
 def test_no_status_line_when_stderr_is_not_a_terminal() -> None:
     run = fabhal("solve", "programs/demo.fhl")
     assert "solving demo.fhl" not in run.stderr and "\x1b" not in run.stderr
+
+
+def test_a_time_limit_stops_with_the_loops_still_closed() -> None:
+    """Every iterate of the solver closes the loops, so a result cut short by
+    --time-limit is a buildable configuration (1e-6 mm), only not yet at rest."""
+    run = fabhal("solve", "--json", "--time-limit", "0.05", "programs/reading_nook.fhl")
+    data = json.loads(run.stdout)
+    codes = [d["code"] for d in data["diagnostics"]]
+    assert "W502" in codes
+    assert data["residual"] < 1e-6
