@@ -14,8 +14,13 @@ feasible-point active-set method covers all of them:
 - a bound or a spacing inequality joins the active set when a step reaches
   it, and leaves when its multiplier says the optimum lies inside;
 - the step minimises a quadratic model on the tangent space of the active
-  constraints: Gauss-Newton with Levenberg-Marquardt damping for least
-  squares (`least_squares_objective`), damped BFGS for other objectives.
+  constraints: Gauss-Newton with Levenberg-Marquardt damping and NL2SOL's
+  secant correction for least squares (`least_squares_objective`), damped
+  BFGS (optionally from a measured Hessian) for other objectives; steps are
+  backtracked along their projection onto the bounds, within a trust radius.
+
+`tangent_curvature` measures the curvature along the active constraints at a
+point: the solver's test for an unstable balance.
 
 Why not scipy.optimize: importing it costs 0.4-0.8 s of every process, more
 than a whole solve is allowed (bench/README.md); and SLSQP, which handled the
