@@ -37,6 +37,7 @@ from __future__ import annotations
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -96,6 +97,20 @@ class _Scaled:
     high: Array
     evaluations: int = 0
 
+    @classmethod
+    def of(
+        cls,
+        objective: Objective,
+        low: Array,
+        high: Array,
+        equality: Equality | None,
+        linear: Linear | None,
+        scale: Array | None,
+    ) -> _Scaled:
+        """The problem in scaled variables (scale None: unscaled)."""
+        factors = np.ones(len(low)) if scale is None else np.asarray(scale, dtype=float)
+        return cls(objective, equality, linear, factors, low * factors, high * factors)
+
     def evaluate(self, u: Array) -> tuple[float, Array, Array | None]:
         self.evaluations += 1
         value, gradient, hessian = self.objective(u / self.scale)
@@ -111,6 +126,11 @@ class _Scaled:
         return c, jacobian / self.scale
 
     def linear_rows(self) -> tuple[Array, Array]:
+        return self._linear_rows
+
+    @cached_property
+    def _linear_rows(self) -> tuple[Array, Array]:
+        # scaled once: asked for at every step, trial and projection
         if self.linear is None:
             return np.zeros((0, len(self.scale))), np.zeros(0)
         return self.linear.matrix / self.scale, self.linear.offset
@@ -155,9 +175,8 @@ def minimize(
     nearly singular model proposes steps that take many halvings to shorten).
     `stalled` sees f after every accepted step and may end the search when
     the progress is no longer worth its cost (the caller's units and taste)."""
-    scale = np.ones(len(start)) if scale is None else np.asarray(scale, dtype=float)
-    problem = _Scaled(objective, equality, linear, scale, low * scale, high * scale)
-    u = np.clip(np.asarray(start, dtype=float) * scale, problem.low, problem.high)
+    problem = _Scaled.of(objective, low, high, equality, linear, scale)
+    u = np.clip(np.asarray(start, dtype=float) * problem.scale, problem.low, problem.high)
     u, c, a, feasible = restore(problem, u, np.zeros(len(u), dtype=bool))
     if not feasible:
         u, c, a, feasible = _close(problem, u)
@@ -201,7 +220,7 @@ def minimize(
         if stalled is not None and stalled(history):
             break
     return Result(
-        u / scale,
+        u / problem.scale,
         value,
         float(stationarity),
         iterations,
@@ -432,9 +451,8 @@ def tangent_curvature(
     on their tangent space, ascending, in objective units per scaled unit
     squared, and the matching directions in x (columns). A negative one makes
     x an unstable balance, and its direction is the way down."""
-    scale = np.ones(len(x)) if scale is None else np.asarray(scale, dtype=float)
-    problem = _Scaled(objective, equality, linear, scale, low * scale, high * scale)
-    u = np.asarray(x, dtype=float) * scale
+    problem = _Scaled.of(objective, low, high, equality, linear, scale)
+    u = np.asarray(x, dtype=float) * problem.scale
     _, gradient, _ = problem.evaluate(u)
     _, a = problem.constraints(u)
     g_rows, h = problem.linear_rows()
@@ -446,10 +464,10 @@ def tangent_curvature(
     null = np.eye(len(u))
     if len(rows):
         _, singular, right_t = np.linalg.svd(rows, full_matrices=True)
-        rank = int(np.sum(singular > RANK * max(float(singular.max(initial=0.0)), 1e-300)))
+        rank = _rank(singular)
         null = right_t[rank:].T
     values, vectors = np.linalg.eigh(null.T @ (0.5 * (hessian + hessian.T)) @ null)
-    return values, (null @ vectors) / scale[:, None]
+    return values, (null @ vectors) / problem.scale[:, None]
 
 
 def _held_by_bounds(problem: _Scaled, u: Array, gradient: Array, rows: Array) -> Array:
@@ -496,7 +514,7 @@ def constrained_step(
         d = _solve_spd(hessian, -gradient)
         return None if d is None else (d, np.zeros(0), float(np.abs(gradient).max(initial=0.0)))
     left, singular, right_t = np.linalg.svd(rows, full_matrices=True)
-    rank = int(np.sum(singular > RANK * max(float(singular.max(initial=0.0)), 1e-300)))
+    rank = _rank(singular)
     image, null = right_t[:rank].T, right_t[rank:].T
     particular = image @ ((left[:, :rank].T @ rhs) / singular[:rank])
     projected = null @ (null.T @ gradient)
@@ -510,6 +528,11 @@ def constrained_step(
         step = particular
     multipliers = left[:, :rank] @ ((right_t[:rank] @ (gradient + hessian @ step)) / singular[:rank])
     return step, multipliers, float(np.abs(projected).max(initial=0.0))
+
+
+def _rank(singular: Array) -> int:
+    """How many singular values span a direction (above RANK of the largest)."""
+    return int(np.sum(singular > RANK * max(float(singular.max(initial=0.0)), 1e-300)))
 
 
 def _solve_spd(matrix: Array, rhs: Array) -> Array | None:

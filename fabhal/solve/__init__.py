@@ -25,7 +25,6 @@ from fabhal.solve.steps import (
     Problem,
     closure_residual_mm,
     fit_target,
-    mm_per_unit,
     potential,
     settle,
     with_friction,
@@ -264,7 +263,7 @@ def _settle_stably(
     if not len(values) or values[0] >= -UNSTABLE_CURVATURE * weight or problem.out_of_time():
         return best, first.curvature
     way_down = directions[:, 0]
-    way_down = way_down * NUDGE_MM / float(np.abs(way_down * mm_per_unit(model)[free]).max())
+    way_down = way_down * NUDGE_MM / float(np.abs(way_down * problem.scale).max())
     for sign in (1.0, -1.0):
         start = np.clip(first.x + sign * way_down, low, high)
         candidate = problem.full(settle(problem, energy, start, at_rest, first.curvature).x)
@@ -325,7 +324,7 @@ def _verify(
     model = problem.model
     free = problem.free
     weight = _weight(masses)
-    per_mm = mm_per_unit(model)[free]
+    per_mm = problem.scale
     gradient = energy(x)[1][free] / per_mm / weight
     low, high = model.bounds()
     span = np.where(np.isfinite(high - low), high - low, 1.0)

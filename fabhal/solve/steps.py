@@ -18,6 +18,8 @@ from __future__ import annotations
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from functools import cached_property
+from typing import Any
 
 import numpy as np
 
@@ -112,6 +114,16 @@ class Problem:
             return None
         return Linear(self.spacing_jacobian(), self.spacing_values(np.zeros(len(self.free))))
 
+    @cached_property
+    def scale(self) -> Array:
+        """Millimetres of motion per unit of each free DoF (`mm_per_unit`)."""
+        return mm_per_unit(self.model)[self.free]
+
+    def _optimiser_setting(self) -> tuple[Array, Array, dict[str, Any]]:
+        """Bounds, loops, spacing and millimetres, as the optimiser takes them."""
+        low, high = self.bounds()
+        return low, high, {"equality": self.equality(), "linear": self.linear(), "scale": self.scale}
+
     def minimize(
         self,
         objective: Objective,
@@ -125,15 +137,13 @@ class Problem:
         stalled: Callable[[list[float]], bool] | None = None,
     ) -> Result:
         """The optimiser on this problem: bounds, loops, spacing, millimetres, time limit."""
-        low, high = self.bounds()
+        low, high, setting = self._optimiser_setting()
         return minimize(
             objective,
             start,
             low,
             high,
-            equality=self.equality(),
-            linear=self.linear(),
-            scale=mm_per_unit(self.model)[self.free],
+            **setting,
             max_iterations=max_iterations,
             max_evaluations=max_evaluations,
             ftol=ftol,
@@ -148,16 +158,8 @@ class Problem:
     def curvature(self, energy: Callable[[Array], tuple[float, Array]], v: Array) -> tuple[Array, Array]:
         """The energy's curvature at v along the active constraints: eigenvalues
         (joules per mm of motion squared, ascending) and directions in v."""
-        low, high = self.bounds()
-        return tangent_curvature(
-            _free_objective(self, energy),
-            v,
-            low,
-            high,
-            equality=self.equality(),
-            linear=self.linear(),
-            scale=mm_per_unit(self.model)[self.free],
-        )
+        low, high, setting = self._optimiser_setting()
+        return tangent_curvature(_free_objective(self, energy), v, low, high, **setting)
 
     def out_of_time(self) -> bool:
         return time.monotonic() > self.deadline
