@@ -182,10 +182,11 @@ Measures = tuple[float, tuple[float, float, float], tuple[tuple[float, ...], tup
 
 
 def _mesh_measures(spec: PartSpec) -> Measures:
-    """Volume (mm3), centroid and bounds of the part's mesh. Kept on disk in the
-    user cache dir, keyed by the mesh file's bytes (or the primitives it is built
-    from) and this module's code: solving then needs no mesh loaded, and not
-    even trimesh imported (~1.5 s on a cold start)."""
+    """Volume (mm3), centroid and bounds of the part's mesh: from `measures.json`
+    beside the mesh file when it lists that very file; else measured once and
+    kept on disk in the user cache dir, keyed by the mesh file's bytes (or the
+    primitives it is built from) and this module's code. Solving then needs no
+    mesh loaded, and not even trimesh imported (~1.5 s on a cold start)."""
     import hashlib
     import json
 

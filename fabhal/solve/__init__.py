@@ -171,10 +171,10 @@ def _solve_once(model: Model, options: SolveOptions, loop_start: Array | None) -
         movable = np.array([i for i in free if i not in held], dtype=int)
         step2 = Problem(model, movable, x.copy(), spacing, deadline)
         energy = with_friction(model, potential(model, masses, centres), masses, x)
-        at_rest = SETTLE_TOLERANCE * _weight(masses)
+        weight = _weight(masses)
+        at_rest = SETTLE_TOLERANCE * weight
         options.report("step 2: settling under gravity")
         if len(movable):
-            weight = _weight(masses)
             x, curvature = _settle_stably(step2, energy, x, at_rest, weight)
             x = _turn_towards_target(step2, energy, goal, x, at_rest, TARGET_PULL * weight, curvature)
         equilibrium, at_bound, falls = _verify(step2, energy, x, masses)
@@ -268,8 +268,7 @@ def _settle_stably(
         start = np.clip(first.x + sign * way_down, low, high)
         candidate = problem.full(settle(problem, energy, start, at_rest, first.curvature).x)
         value = energy(candidate)[0]
-        closed = not model.closures or closure_residual_mm(model, candidate) < 1e-6
-        if closed and value < best_energy - 1e-12:
+        if _closed(model, candidate) and value < best_energy - 1e-12:
             best, best_energy = candidate, value
     return best, first.curvature
 
@@ -290,8 +289,12 @@ def _turn_towards_target(
     pull = with_target_pull(problem.model, energy, goal, strength)
     pulled = settle(problem, pull, x[problem.free], at_rest, curvature)
     turned = problem.full(settle(problem, energy, pulled.x, at_rest, pulled.curvature).x)
-    closed = not problem.model.closures or closure_residual_mm(problem.model, turned) < 1e-6
-    return turned if closed and energy(turned)[0] <= energy(x)[0] + 1e-9 else x
+    return turned if _closed(problem.model, turned) and energy(turned)[0] <= energy(x)[0] + 1e-9 else x
+
+
+def _closed(model: Model, x: Array) -> bool:
+    """Every loop closed to 1e-6 mm (always, without loops)."""
+    return not model.closures or closure_residual_mm(model, x) < 1e-6
 
 
 def _late(options: SolveOptions) -> Diagnostic:
