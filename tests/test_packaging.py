@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import shutil
 import subprocess
+import sys
 import venv
 from pathlib import Path
 
@@ -15,10 +16,10 @@ from tests.conftest import REPO
 
 @pytest.mark.slow
 def test_non_editable_install_works_outside_the_checkout(tmp_path: Path) -> None:
-    # a venv that sees the already-installed dependencies, so no network is needed
     env_dir = tmp_path / "venv"
-    venv.EnvBuilder(system_site_packages=True, with_pip=True).create(env_dir)
+    venv.EnvBuilder(with_pip=True).create(env_dir)
     python = env_dir / "bin" / "python"
+    _see_running_packages(python)
     source = tmp_path / "src"  # a copy, so the build leaves no artefacts in the checkout
     shutil.copytree(
         REPO, source, ignore=shutil.ignore_patterns(".git", "*.egg-info", "__pycache__", ".*cache")
@@ -48,3 +49,19 @@ def test_non_editable_install_works_outside_the_checkout(tmp_path: Path) -> None
     )
     assert run.returncode == 0, run.stdout + run.stderr
     assert "demo.fhl: ok" in run.stdout
+
+
+def _see_running_packages(python: Path) -> None:
+    """Let the new venv import what the interpreter running the tests has installed
+    (hatchling, lark, numpy, ...), so nothing is downloaded. `system_site_packages`
+    would not do: it shows the *base* interpreter's packages, which inside a user's
+    venv are not the ones `pip install -e '.[test]'` installed. Only site-packages
+    directories are listed, never the checkout an editable install points at."""
+    running = [p for p in sys.path if Path(p).name in ("site-packages", "dist-packages") and Path(p).is_dir()]
+    target = subprocess.run(
+        [str(python), "-c", "import sysconfig; print(sysconfig.get_paths()['purelib'])"],
+        capture_output=True,
+        text=True,
+        check=True,
+    ).stdout.strip()
+    (Path(target) / "_outer_site_packages.pth").write_text("\n".join(running) + "\n")
