@@ -23,24 +23,28 @@ ISSUES_URL = "the FabHaL issue tracker"
 
 MAIN_EPILOG = """\
 examples:
-  fabhal solve programs/mug_hanger.fhl       where every part ends up, hanging at rest
+  fabhal solve {gallery}/mug_hanger.fhl       where every part ends up, hanging at rest
   fabhal solve --json -o out.json prog.fhl   the full result as JSON
-  fabhal render programs/mug_hanger.fhl -o mug.png   draw it (.png .html .glb .obj .stl)
-  fabhal check programs/mug_hanger.fhl       validate a program, report every problem
-  fabhal check --json programs/*.fhl         the same as a JSON array, for tools
+  fabhal render {gallery}/mug_hanger.fhl -o mug.png   draw it (.png .html .glb .obj .stl)
+  fabhal check {gallery}/mug_hanger.fhl       validate a program, report every problem
+  fabhal check --json {gallery}/*.fhl         the same as a JSON array, for tools
   fabhal parts                               the part library, one line per part
   fabhal parts DoubleHook                    one part: primitives, DoFs, mass
+  fabhal gallery                             the example hacks and reusable sub-assemblies
   fabhal check --help                        more about one command
 
 A program (.fhl) says what the hack hangs from (environment), what it holds
 (target) and which connector of which part touches which (connect); the
 solver works out where everything ends up. See docs/language.md.
+The gallery programs above are installed with FabHaL in {gallery}/;
+a program anywhere can `import "lib/s_hook_chain.fhl"` and the other
+sub-assemblies that `fabhal gallery` lists.
 """
 
 CHECK_EPILOG = """\
 examples:
-  fabhal check programs/mug_hanger.fhl
-  fabhal check programs/*.fhl                check several files at once
+  fabhal check {gallery}/mug_hanger.fhl
+  fabhal check {gallery}/*.fhl                check several files at once
   fabhal check --json my_hack.fhl | jq .     machine-readable diagnostics
   fabhal check -D n=3 -D Ring=RingM family.fhl   bind the program's `param`s
 
@@ -67,12 +71,12 @@ connection comes apart).
 
 SOLVE_EPILOG = """\
 examples:
-  fabhal solve programs/mug_hanger.fhl
-  fabhal solve --json programs/bird_feeder.fhl      the result object on stdout
-  fabhal solve -o result.json programs/demo.fhl     ... or in a file
+  fabhal solve {gallery}/mug_hanger.fhl
+  fabhal solve --json {gallery}/bird_feeder.fhl      the result object on stdout
+  fabhal solve -o result.json {gallery}/demo.fhl     ... or in a file
   fabhal solve --no-gravity my_hack.fhl             only step 1: closest to the target
   fabhal solve -D n=3 --seed 7 family.fhl           bind a param; another random start
-  fabhal solve programs/mug_hanger.fhl --render mug.png   ... and draw it (see `render`)
+  fabhal solve {gallery}/mug_hanger.fhl --render mug.png   ... and draw it (see `render`)
 
 Step 1 moves the parts (through the connections' degrees of freedom) to bring
 the target closest to its requested frame; step 2 lets the assembly settle
@@ -88,12 +92,12 @@ exit status: 0 solved, 1 falls apart / infeasible / errors in the program,
 
 RENDER_EPILOG = """\
 examples:
-  fabhal render programs/mug_hanger.fhl -o mug.png          a picture (no display needed)
-  fabhal render programs/mug_hanger.fhl -o mug.png --views iso,front,side
-  fabhal render programs/bird_feeder.fhl -o feeder.html     open in a browser: orbit, zoom, hover
-  fabhal render programs/demo.fhl -o demo.glb --primitives  3D file for Blender, a CAD tool, ...
+  fabhal render {gallery}/mug_hanger.fhl -o mug.png          a picture (no display needed)
+  fabhal render {gallery}/mug_hanger.fhl -o mug.png --views iso,front,side
+  fabhal render {gallery}/bird_feeder.fhl -o feeder.html     open in a browser: orbit, zoom, hover
+  fabhal render {gallery}/demo.fhl -o demo.glb --primitives  3D file for Blender, a CAD tool, ...
   fabhal render my_hack.fhl -o before.png --show requested  ghost of the target where you asked for it
-  fabhal solve programs/mug_hanger.fhl --render mug.png     solve, report and render in one go
+  fabhal solve {gallery}/mug_hanger.fhl --render mug.png     solve, report and render in one go
 
 The suffix of OUT picks the format: .png (three-quarter view, optionally front,
 side and top views; parts labelled; the requested target frame as long axes,
@@ -110,9 +114,9 @@ solved (a falling design is still drawn), 2 a file could not be read or written.
 
 BENCH_EPILOG = """\
 examples:
-  fabhal bench                          every program in programs/, 5 runs each
+  fabhal bench                          every program in {gallery}/, 5 runs each
   fabhal bench -n 1 --no-process        a quick look: one run, no separate processes
-  fabhal bench programs/mug_hanger.fhl  one program
+  fabhal bench {gallery}/mug_hanger.fhl  one program
   python bench/run.py                   the same from a checkout
 
 Per program: parse, check and solve times (median over the runs in one
@@ -123,6 +127,18 @@ compiling fabhal first), and whether the targets are met: a process under 1 s,
 the solve step under 200 ms (500 ms for programs with loops). The four
 clip-light programs also run back to back as one row. Writes bench/results.json
 when run from a checkout (or -o FILE). See bench/README.md.
+"""
+
+
+GALLERY_EPILOG = """\
+examples:
+  fabhal gallery                               every program and sub-assembly, with what it is
+  fabhal solve {gallery}/mug_hanger.fhl          solve one of them where it is installed
+  cp {gallery}/mug_hanger.fhl my_hack.fhl        ... or copy it and make it yours
+
+In your own program, `import "lib/s_hook_chain.fhl"` (or any lib/ file listed)
+makes its assembly available: an import is looked up next to the importing
+file, then in the part library, then in the gallery.
 """
 
 
@@ -212,12 +228,22 @@ def _add_drawing_options(command: argparse.ArgumentParser) -> None:
     )
 
 
+def _gallery_display() -> str:
+    """Where the gallery is, as the user would type it: relative inside a
+    checkout, the installed path otherwise (so `--help`'s examples run as printed)."""
+    from fabhal.load import display_name
+    from fabhal.resources import gallery_dir
+
+    return display_name(gallery_dir())
+
+
 def build_parser() -> argparse.ArgumentParser:
     formatter = argparse.RawDescriptionHelpFormatter
+    gallery = _gallery_display()
     parser = _Parser(
         prog="fabhal",
         description="FabHaL: design fixture hacks from everyday objects.",
-        epilog=MAIN_EPILOG,
+        epilog=MAIN_EPILOG.format(gallery=gallery),
         formatter_class=formatter,
     )
     parser.add_argument("--version", action="version", version=f"fabhal {__version__}")
@@ -228,7 +254,7 @@ def build_parser() -> argparse.ArgumentParser:
         "check",
         help="validate programs without solving them",
         description="Parse and check .fhl programs; report every problem found, sorted by position.",
-        epilog=CHECK_EPILOG,
+        epilog=CHECK_EPILOG.format(gallery=gallery),
         formatter_class=formatter,
     )
     check.add_argument("files", nargs="+", type=Path, metavar="FILE", help=".fhl program(s) to check")
@@ -241,7 +267,7 @@ def build_parser() -> argparse.ArgumentParser:
         help="solve a program: where every part ends up",
         description="Check a program, then solve it: fit the target, settle under gravity, "
         "report where every part ends up and whether it holds.",
-        epilog=SOLVE_EPILOG,
+        epilog=SOLVE_EPILOG.format(gallery=gallery),
         formatter_class=formatter,
     )
     solve.add_argument("file", type=Path, metavar="FILE", help=".fhl program to solve")
@@ -264,7 +290,7 @@ def build_parser() -> argparse.ArgumentParser:
         help="solve a program and draw it: picture, 3D file or browser viewer",
         description="Solve a program and write the result as a picture (.png), a self-contained "
         "3D viewer page (.html) or a 3D file (.glb, .obj, .stl).",
-        epilog=RENDER_EPILOG,
+        epilog=RENDER_EPILOG.format(gallery=gallery),
         formatter_class=formatter,
     )
     render.add_argument("file", type=Path, metavar="FILE", help=".fhl program to solve and draw")
@@ -285,7 +311,7 @@ def build_parser() -> argparse.ArgumentParser:
         help="time parsing, checking and solving of the gallery programs",
         description="Benchmark the gallery: per program the parse, check and solve times and "
         "whole `fabhal solve` processes, against the speed targets.",
-        epilog=BENCH_EPILOG,
+        epilog=BENCH_EPILOG.format(gallery=gallery),
         formatter_class=formatter,
     )
     bench.add_argument(
@@ -308,6 +334,17 @@ def build_parser() -> argparse.ArgumentParser:
     parts.add_argument("name", nargs="?", metavar="NAME", help="a part to show in full")
     parts.add_argument("--json", action="store_true", help="print JSON instead of tables")
     parts.set_defaults(run=run_parts)
+
+    gallery_command = commands.add_parser(
+        "gallery",
+        help="list the example hacks and the reusable sub-assemblies, and where they are",
+        description="The gallery installed with FabHaL: example programs to solve or copy, and "
+        "sub-assemblies (lib/) that any program can import.",
+        epilog=GALLERY_EPILOG.format(gallery=gallery),
+        formatter_class=formatter,
+    )
+    gallery_command.add_argument("--json", action="store_true", help="print JSON instead of a table")
+    gallery_command.set_defaults(run=run_gallery)
     return parser
 
 
@@ -460,7 +497,7 @@ def run_bench(args: argparse.Namespace) -> int:
     from fabhal import bench, resources
 
     checkout = resources.stdlib_dir().parent
-    programs = list(args.files) or sorted((checkout / "programs").glob("*.fhl"))
+    programs = list(args.files) or sorted(resources.gallery_dir().glob("*.fhl"))
     if not programs:
         print("fabhal: no programs to benchmark (pass .fhl files)", file=sys.stderr)
         return EXIT_USAGE
@@ -508,6 +545,18 @@ def run_parts(args: argparse.Namespace) -> int:
         console = _console()
         for renderable in report.detail_renderables(info):
             console.print(renderable)
+    return EXIT_OK
+
+
+def run_gallery(args: argparse.Namespace) -> int:
+    from fabhal import resources
+    from fabhal.report import gallery
+
+    items = gallery.entries(resources.gallery_dir())
+    if args.json:
+        print(json.dumps(gallery.to_json(items), indent=2))
+    else:
+        _console().print(gallery.table(items, resources.gallery_dir()))
     return EXIT_OK
 
 

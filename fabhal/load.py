@@ -1,9 +1,11 @@
 """Files -> parsed modules: the program, what it imports, and the part library.
 
 `import "path.fhl"` resolves relative to the importing file, then to the
-standard library. The standard library (`stdlib_parts/*.fhl`) is always
-loaded, so `DoubleHook()` needs no import. Importing a file twice (or in a
-cycle) loads it once.
+standard library, then to the installed gallery (so `import
+"lib/s_hook_chain.fhl"`, a reusable sub-assembly, works from any directory).
+The standard library (`stdlib_parts/*.fhl`) is always loaded, so
+`DoubleHook()` needs no import. Importing a file twice (or in a cycle) loads
+it once.
 """
 
 from __future__ import annotations
@@ -94,7 +96,10 @@ class _Loader:
         return module
 
     def _load_import(self, importer: Path, statement: ast.ImportStmt) -> None:
-        candidates = [importer.parent / statement.path, resources.stdlib_dir() / statement.path]
+        candidates = [
+            base / statement.path
+            for base in (importer.parent, resources.stdlib_dir(), resources.gallery_dir())
+        ]
         for candidate in candidates:
             if candidate.is_file():
                 try:
@@ -110,7 +115,8 @@ class _Loader:
                 "E003",
                 f'cannot find "{statement.path}" to import',
                 statement.span,
-                f"looked in {searched}; paths are relative to the importing file",
+                f"looked in {searched}; a path is relative to the importing file, the part "
+                "library or the gallery (`fabhal gallery` lists what it has)",
             )
         )
 

@@ -1,8 +1,9 @@
-"""Where the grammar, the part library and the meshes live.
+"""Where the grammar, the part library, the meshes and the gallery live.
 
-In a checkout they sit beside the package (`grammar/`, `stdlib_parts/`); a wheel
-carries them inside the package as `fabhal/grammar` and `fabhal/stdlib_parts`
-(see `[tool.hatch.build.targets.wheel.force-include]` in pyproject.toml).
+In a checkout they sit beside the package (`grammar/`, `stdlib_parts/`,
+`programs/`); a wheel carries them inside the package as `fabhal/grammar`,
+`fabhal/stdlib_parts` and `fabhal/programs` (see
+`[tool.hatch.build.targets.wheel.force-include]` in pyproject.toml).
 """
 
 from __future__ import annotations
@@ -29,6 +30,12 @@ def grammar_path() -> Path:
 @cache
 def stdlib_dir() -> Path:
     return _data_dir("stdlib_parts")
+
+
+@cache
+def gallery_dir() -> Path:
+    """The gallery of hacks (`programs/`) and its reusable sub-assemblies (`programs/lib/`)."""
+    return _data_dir("programs")
 
 
 def cache_dir() -> Path | None:

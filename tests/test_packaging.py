@@ -1,5 +1,7 @@
-"""A plain `pip install .` must carry grammar/ and stdlib_parts/ inside the wheel,
-so `fabhal check` works from outside the checkout."""
+"""A plain `pip install .` must carry grammar/, stdlib_parts/ and the gallery
+(programs/, with its reusable lib/) inside the wheel, so `fabhal check` works
+from outside the checkout, a program anywhere can import the gallery's
+sub-assemblies, and the examples `--help` prints run as printed."""
 
 from __future__ import annotations
 
@@ -49,6 +51,26 @@ def test_non_editable_install_works_outside_the_checkout(tmp_path: Path) -> None
     )
     assert run.returncode == 0, run.stdout + run.stderr
     assert "demo.fhl: ok" in run.stdout
+
+    fabhal = str(env_dir / "bin" / "fabhal")
+    own = elsewhere / "own.fhl"  # not in the gallery: imports its sub-assembly from anywhere
+    own.write_text(
+        'import "lib/s_hook_chain.fhl"\n'
+        "environment rod = Rod(length: 400, radius: 3) at (0, 0, 300) rot (90, 0, 90)\n"
+        "chain = SHookChain(n: 2)\nmug = Mug()\n"
+        "connect chain.top -- rod\nconnect mug.hook -- chain.bottom\n"
+        "target mug.hook at (0, 0, 200) rot (0, 0, 0)\n"
+    )
+    run = subprocess.run([fabhal, "check", "own.fhl"], cwd=elsewhere, capture_output=True, text=True)
+    assert run.returncode == 0 and "own.fhl: ok" in run.stdout, run.stdout + run.stderr
+
+    help_text = subprocess.run([fabhal, "--help"], cwd=elsewhere, capture_output=True, text=True).stdout
+    example = next(
+        line.split()[2] for line in help_text.splitlines() if line.strip().startswith("fabhal check ")
+    )
+    assert example.startswith(str(env_dir)) and example.endswith("mug_hanger.fhl"), help_text
+    run = subprocess.run([fabhal, "check", example], cwd=elsewhere, capture_output=True, text=True)
+    assert run.returncode == 0, run.stdout + run.stderr
 
 
 def _see_running_packages(python: Path) -> None:
