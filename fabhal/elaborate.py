@@ -7,6 +7,7 @@ Part names in the flat program are the program's own: `s1`, `tb[2]`, and
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from types import MappingProxyType
@@ -20,6 +21,12 @@ from fabhal.syntax import ast
 from fabhal.syntax.hints import did_you_mean, suggestion
 
 Vec3 = tuple[float, float, float]
+
+# Passes of `for` loops in one program, all loops together, and values in one
+# `param` domain: generous for any hack (the largest gallery loop makes 7 links),
+# small enough that a typo such as `1 .. 100000` is an error, not a hang.
+LOOP_PASS_LIMIT = 2000
+DOMAIN_VALUE_LIMIT = 10000
 
 
 @dataclass(frozen=True)
@@ -108,6 +115,8 @@ class _Elaborator:
             s.name: s for m in program.modules for s in m.statements if isinstance(s, ast.AssemblyDef)
         }
         self.later: dict[str, Span] = {}  # top-level names, to tell "used before declared" from "unknown"
+        self.loop_passes = 0
+        self.expanding: list[str] = []  # the assemblies being expanded, outermost first
 
     # ---- entry
 
@@ -238,6 +247,20 @@ class _Elaborator:
 
     def _loop(self, loop: ast.ForLoop, scope: _Scope) -> None:
         low, high = _whole(loop.low, scope), _whole(loop.high, scope)
+        self.loop_passes += max(0, high - low + 1)
+        if self.loop_passes > LOOP_PASS_LIMIT:
+            raise FabhalError(
+                [
+                    error(
+                        "E312",
+                        f"too many loop passes: this loop runs {high - low + 1:,} times, and all of the "
+                        f"program's loops together may run at most {LOOP_PASS_LIMIT:,}",
+                        loop.low.span.to(loop.high.span),
+                        "check the loop's bounds: a hack of more than a few hundred parts is beyond "
+                        "what FabHaL solves",
+                    )
+                ]
+            )
         saved = scope.values.get(loop.variable)
         for i in range(low, high + 1):
             scope.values[loop.variable] = float(i)
@@ -332,6 +355,18 @@ class _Elaborator:
         args: dict[str, tuple[Value | str, Span]],
         call: ast.Call,
     ) -> dict[str, Endpoint]:
+        if definition.name in self.expanding:
+            chain = " -> ".join([*self.expanding[self.expanding.index(definition.name) :], definition.name])
+            raise FabhalError(
+                [
+                    error(
+                        "E313",
+                        f"the assembly `{definition.name}` contains itself ({chain})",
+                        call.span,
+                        "an assembly cannot be made of itself; repeat parts with a `for` loop instead",
+                    )
+                ]
+            )
         inner = _Scope(prefix + ".")
         known = {p.name: p for p in definition.params}
         for name, (value, span) in args.items():
@@ -365,8 +400,12 @@ class _Elaborator:
                     )
         saved_later = self.later
         self.later = _declared_names(definition.body)
-        self._block(definition.body, inner)
-        self.later = saved_later
+        self.expanding.append(definition.name)
+        try:
+            self._block(definition.body, inner)
+        finally:
+            self.expanding.pop()
+            self.later = saved_later
         return inner.ports
 
     # ---- references
@@ -529,13 +568,31 @@ def _domain_values(domain: ast.Domain, scope: _Scope) -> list[Value | str]:
     if isinstance(domain, ast.ListDomain):
         return [_domain_item(i, scope) for i in domain.items]
     if isinstance(domain, ast.RangeDomain):
-        return [float(i) for i in range(_whole(domain.low, scope), _whole(domain.high, scope) + 1)]
+        low, high = _whole(domain.low, scope), _whole(domain.high, scope)
+        _limit_domain(high - low + 1, domain.low.span.to(domain.high.span))
+        return [float(i) for i in range(low, high + 1)]
     start, stop = number(domain.start, scope.numbers()), number(domain.stop, scope.numbers())
     count = _whole(domain.count, scope)
     if count < 1:
         raise FabhalError([error("E310", "linspace needs a count of at least 1", domain.count.span, None)])
+    _limit_domain(count, domain.count.span)
     step = (stop - start) / (count - 1) if count > 1 else 0.0
     return [start + k * step for k in range(count)]
+
+
+def _limit_domain(count: int, span: Span) -> None:
+    if count > DOMAIN_VALUE_LIMIT:
+        raise FabhalError(
+            [
+                error(
+                    "E312",
+                    f"too many values: this domain has {count:,}, at most {DOMAIN_VALUE_LIMIT:,} are allowed",
+                    span,
+                    "a family search tries every value: use `linspace(START, STOP, COUNT)` with a "
+                    "smaller COUNT",
+                )
+            ]
+        )
 
 
 def _in_domain(value: Value | str, domain: ast.Domain, candidates: list[Value | str]) -> bool:
@@ -553,9 +610,10 @@ def _show(value: Value | str) -> str:
 
 def _parse_binding(text: str) -> Value | str:
     try:
-        return float(text)
+        value = float(text)
     except ValueError:
         return text
+    return value if math.isfinite(value) else text  # `-D e=nan` is no number: not in any domain
 
 
 def _params_help(scope: _Scope) -> str | None:

@@ -5,11 +5,16 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Mapping
 
-from fabhal.diagnostics import FabhalError, error
+from fabhal.diagnostics import Diagnostic, FabhalError, error
 from fabhal.syntax import ast
 from fabhal.syntax.hints import did_you_mean, suggestion
 
 Value = float | bool
+
+# Every number a program computes lies within this (a kilometre, in millimetres):
+# far beyond any hack, and small enough that the solver's squares and sums stay
+# exact to well under a micrometre; infinities and NaN never get past here.
+MAGNITUDE_LIMIT = 1e6
 
 _DEG = math.pi / 180.0
 FUNCTIONS: dict[str, tuple[int, Callable[..., float]]] = {
@@ -24,7 +29,28 @@ FUNCTIONS: dict[str, tuple[int, Callable[..., float]]] = {
 
 
 def evaluate(expr: ast.Expr, env: Mapping[str, Value]) -> Value:
-    """The value of `expr` with names bound by `env`; raises FabhalError (E22x)."""
+    """The value of `expr` with names bound by `env`; raises FabhalError (E22x),
+    E224 for a value that is not finite or beyond MAGNITUDE_LIMIT."""
+    value = _value(expr, env)
+    if not isinstance(value, bool) and not (math.isfinite(value) and abs(value) <= MAGNITUDE_LIMIT):
+        raise FabhalError([_out_of_range(expr, value)])
+    return value
+
+
+def _out_of_range(expr: ast.Expr, value: float) -> Diagnostic:
+    written = expr.text if isinstance(expr, ast.Number) and expr.text else None
+    shown = written or (f"{value:g}" if math.isfinite(value) else "not a finite number")
+    what = f"`{written}`" if written else f"this expression ({shown})"
+    return error(
+        "E224",
+        f"{what} is out of range: numbers lie within ±{MAGNITUDE_LIMIT:,.0f}",
+        expr.span,
+        "lengths are in millimetres, angles in degrees and masses in grams; "
+        "a number this large is almost always a typo",
+    )
+
+
+def _value(expr: ast.Expr, env: Mapping[str, Value]) -> Value:
     if isinstance(expr, ast.Number):
         return expr.value
     if isinstance(expr, ast.Boolean):

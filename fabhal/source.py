@@ -33,8 +33,9 @@ class SourceFile:
 
     @classmethod
     def read(cls, path: Path, name: str | None = None) -> SourceFile:
-        """Read a UTF-8 file; raises OSError or UnicodeDecodeError for the caller to report."""
-        text = path.read_bytes().decode("utf-8")
+        """Read a UTF-8 file (a leading byte-order mark, as some Windows editors
+        write, is dropped); raises OSError or UnicodeDecodeError for the caller."""
+        text = path.read_bytes().decode("utf-8-sig")
         return cls(name if name is not None else str(path), text)
 
     def line_text(self, line: int) -> str:

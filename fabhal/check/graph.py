@@ -30,6 +30,17 @@ def check(ctx: CheckContext) -> list[Diagnostic]:
                 "a program holds exactly one target; remove one `target` line",
             )
         )
+    for target in program.targets[:1]:
+        if program.part(target.part).environment:
+            problems.append(
+                error(
+                    "E417",
+                    f"the target `{target.part}` is an environment: it stays where its `at (...)` puts it",
+                    target.span,
+                    "target the object the hack holds (a part that moves), e.g. the one at the end of "
+                    "the chain; to move the environment, change its `at (...)`",
+                )
+            )
     if not any(p.environment for p in program.parts):
         problems.append(
             error(
@@ -113,7 +124,7 @@ def _fixed_without_freedom(ctx: CheckContext) -> list[Diagnostic]:
 
 
 def _only_on_target(ctx: CheckContext, target: str | None) -> list[Diagnostic]:
-    if target is None:
+    if target is None or ctx.program.part(target).environment:  # E417 says what is wrong
         return []
     problems = []
     for part in ctx.program.parts:
