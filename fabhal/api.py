@@ -8,7 +8,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from fabhal.check import CheckContext, CheckReport, check_program
-from fabhal.diagnostics import Diagnostic, has_errors, sort_diagnostics
+from fabhal.diagnostics import Diagnostic, has_errors, merge_repeats, sort_diagnostics
 from fabhal.elaborate import FlatProgram, elaborate
 from fabhal.library import Library, build_library
 from fabhal.load import LoadedProgram, load_program
@@ -107,4 +107,4 @@ def _checked(program: LoadedProgram, bindings: Mapping[str, str] | None, seed: i
         model = build_model(flat)
         report = check_program(CheckContext(flat, model, library, seed), complete=not has_errors(found))
         found.extend(report.diagnostics)
-    return CheckResult(program, library, flat, model, report, tuple(sort_diagnostics(found)))
+    return CheckResult(program, library, flat, model, report, tuple(sort_diagnostics(merge_repeats(found))))

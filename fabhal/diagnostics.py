@@ -8,7 +8,7 @@ tools. Every code is documented in docs/errors.md.
 from __future__ import annotations
 
 from collections.abc import Iterable, Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from enum import Enum
 
 from fabhal.source import SourceFile, Span
@@ -57,6 +57,35 @@ class FabhalError(Exception):
 
 def sort_diagnostics(diagnostics: Iterable[Diagnostic]) -> list[Diagnostic]:
     return sorted(diagnostics, key=Diagnostic.sort_key)
+
+
+def merge_repeats(diagnostics: Iterable[Diagnostic]) -> list[Diagnostic]:
+    """One diagnostic per place and code. A line inside a `for` loop (or in an
+    assembly used several times) is elaborated and checked once per pass, and
+    would report its problem each time; the first report stands for all, with a
+    note saying how many passes it affects and what the others said."""
+    groups: dict[tuple[Severity, str, Span | None, str], list[Diagnostic]] = {}
+    for diagnostic in diagnostics:
+        # without a place, only word-for-word repeats are the same problem
+        words = diagnostic.message if diagnostic.span is None else ""
+        groups.setdefault((diagnostic.severity, diagnostic.code, diagnostic.span, words), []).append(
+            diagnostic
+        )
+    merged = []
+    for first, *others in groups.values():
+        if not others:
+            merged.append(first)
+            continue
+        different = list(dict.fromkeys(d.message for d in others if d.message != first.message))
+        note = (
+            f"this line is reached {len(others) + 1} times (a `for` loop, or an assembly used more "
+            "than once); reported once"
+        )
+        if different:
+            shown = "; ".join(different[:3]) + ("; ..." if len(different) > 3 else "")
+            note += f"; the other passes say: {shown}"
+        merged.append(replace(first, notes=(*first.notes, note)))
+    return merged
 
 
 def has_errors(diagnostics: Iterable[Diagnostic]) -> bool:

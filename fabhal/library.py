@@ -89,7 +89,7 @@ class Library:
     ) -> PartSpec:
         """Bind arguments (checked against the parameters' ranges) and evaluate the part."""
         part_type = self.parts[type_name]
-        env = _bind_arguments(part_type, args, span)
+        env = _bind_arguments(part_type, args, span, self.parts)
         problems: list[Diagnostic] = []
         spec = _evaluate_part(part_type, env, self.materials, problems)
         if problems or spec is None:
@@ -260,7 +260,10 @@ def _parameters(definition: ast.PartDef, problems: list[Diagnostic]) -> tuple[Pa
 
 
 def _bind_arguments(
-    part_type: PartType, args: Mapping[str, tuple[Value | str, Span]], span: Span
+    part_type: PartType,
+    args: Mapping[str, tuple[Value | str, Span]],
+    span: Span,
+    parts: Mapping[str, PartType],
 ) -> dict[str, float]:
     problems: list[Diagnostic] = []
     known = {p.name: p for p in part_type.parameters}
@@ -269,7 +272,7 @@ def _bind_arguments(
         if name not in known:
             help_text = suggestion(
                 name, known, f"`{part_type.name}` takes {{choices}}", f"`{part_type.name}` takes no arguments"
-            )
+            ) + _with_parameter(parts, name, part_type.name)
             problems.append(
                 error("E211", f"`{part_type.name}` has no parameter `{name}`", arg_span, help_text)
             )
@@ -302,6 +305,22 @@ def _bind_arguments(
     if problems:
         raise FabhalError(problems)
     return env
+
+
+def _with_parameter(parts: Mapping[str, PartType], parameter: str, like: str) -> str:
+    """A pointer to the library parts that do take `parameter` (a variant of `like`,
+    such as ParamTurnbuckle for Turnbuckle, first), or nothing."""
+    having = sorted(
+        (t for t in parts.values() if any(p.name == parameter for p in t.parameters)),
+        key=lambda t: (like.lower() not in t.name.lower(), t.name),
+    )
+    if not having:
+        return ""
+    best = having[0]
+    (param,) = [p for p in best.parameters if p.name == parameter]
+    shown = f" ({param.low:g} .. {param.high:g})" if param.low is not None and param.high is not None else ""
+    others = f"; also {', '.join(f'`{t.name}`' for t in having[1:4])}" if len(having) > 1 else ""
+    return f"; `{best.name}` takes `{parameter}`{shown}: `{best.name}({parameter}: ...)`{others}"
 
 
 def _evaluate_part(

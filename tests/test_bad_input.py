@@ -111,3 +111,17 @@ def test_an_assembly_that_contains_itself_is_an_error(tmp_path: Path) -> None:
     (tmp_path / "p.fhl").write_text(text)
     codes = [(d.code, d.span.line) for d in api.check(tmp_path / "p.fhl").diagnostics]
     assert ("E313", 2) in codes
+
+
+def test_a_problem_inside_a_loop_is_reported_once_with_its_pass_count(tmp_path: Path) -> None:
+    text = (
+        "environment ceiling = CeilingHook() at (0, 0, 1000)\nlink = ceiling.hook\n"
+        "for i in 1 .. 3 {\n  tb[i] = Turnbuckle(extension: 10)\n  r[i] = RingS()\n"
+        "  connect tb[i].hook1 -- link\n  connect r[i].ring -- tb[i].hook2\n  link = r[i].ring\n}\n"
+        "target r[3].ring at (0, 0, 500)\n"
+    )
+    (tmp_path / "p.fhl").write_text(text)
+    (problem,) = api.check(tmp_path / "p.fhl").diagnostics
+    assert (problem.code, problem.span.line, problem.span.column) == ("E211", 4, 22)
+    assert "reached 3 times" in problem.notes[0]
+    assert "`ParamTurnbuckle` takes `extension` (0 .. 45.7)" in (problem.help or "")
