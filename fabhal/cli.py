@@ -8,6 +8,8 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
+import os
 import sys
 import traceback
 from collections.abc import Sequence
@@ -170,10 +172,26 @@ def _add_define(command: argparse.ArgumentParser) -> None:
 def _add_solver_options(command: argparse.ArgumentParser) -> None:
     command.add_argument("--seed", type=int, default=0, help="seed for the random starts (default 0)")
     command.add_argument(
-        "--time-limit", type=float, metavar="SECONDS", help="stop with the best result so far"
+        "--time-limit",
+        type=_seconds,
+        metavar="SECONDS",
+        help="stop with the best result so far after this many seconds (default: no limit)",
     )
     command.add_argument("--no-gravity", action="store_true", help="skip step 2 (settling under gravity)")
     _add_define(command)
+
+
+def _seconds(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        value = math.nan
+    if not (math.isfinite(value) and value > 0):
+        raise argparse.ArgumentTypeError(
+            f"expected a positive number of seconds, e.g. --time-limit 5; got {text!r} "
+            "(leave the option out for no limit)"
+        )
+    return value
 
 
 def _views(text: str) -> tuple[str, ...]:
@@ -575,7 +593,42 @@ def _warning_count(diagnostics: Sequence[Diagnostic]) -> str:
     return f" ({', '.join(counts)})" if counts else ""
 
 
+class _ReaderMayLeave:
+    """stdout that lets its reader stop early (`fabhal solve x | head -2`): once the
+    pipe is closed, what is left is dropped instead of raising BrokenPipeError,
+    and the command ends with its own exit status."""
+
+    def __init__(self, stream: Any) -> None:
+        self._stream = stream
+        self._gone = False
+
+    def write(self, text: str) -> int:
+        if not self._gone:
+            try:
+                self._stream.write(text)
+            except BrokenPipeError:
+                self._reader_left()
+        return len(text)
+
+    def flush(self) -> None:
+        if not self._gone:
+            try:
+                self._stream.flush()
+            except BrokenPipeError:
+                self._reader_left()
+
+    def _reader_left(self) -> None:
+        self._gone = True
+        # what Python still holds for the closed pipe goes nowhere at exit
+        os.dup2(os.open(os.devnull, os.O_WRONLY), self._stream.fileno())
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self._stream, name)
+
+
 def main(argv: Sequence[str] | None = None) -> int:
+    if not isinstance(sys.stdout, _ReaderMayLeave):
+        sys.stdout = _ReaderMayLeave(sys.stdout)  # type: ignore[assignment]
     parser = build_parser()
     args = parser.parse_args(argv)
     if args.command is None:

@@ -115,3 +115,31 @@ def test_a_time_limit_stops_with_the_loops_still_closed() -> None:
     codes = [d["code"] for d in data["diagnostics"]]
     assert "W502" in codes
     assert data["residual"] < 1e-6
+
+
+def test_a_reader_that_stops_early_is_no_error() -> None:
+    """`fabhal solve x | head -2`: the reader closes the pipe; FabHaL ends quietly
+    with the command's own status (here: solved, 0) instead of 1 or a traceback."""
+    import subprocess
+    import sys
+
+    for args in (["solve", "programs/mug_hanger.fhl"], ["parts", "--json"]):
+        process = subprocess.Popen(
+            [sys.executable, "-m", "fabhal", *args],
+            cwd=REPO,
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+        )
+        assert process.stdout is not None and process.stderr is not None
+        process.stdout.close()  # the reader is gone before the first line
+        stderr = process.stderr.read().decode()
+        assert process.wait(timeout=60) == 0, stderr
+        assert stderr == ""
+
+
+def test_time_limit_must_be_a_positive_number_of_seconds() -> None:
+    for value in ("0", "-1", "nan", "soon"):
+        run = fabhal("solve", "--time-limit", value, "programs/demo.fhl")
+        assert run.returncode == 2, value
+        assert "expected a positive number of seconds" in run.stderr
+        assert run.stdout == ""
