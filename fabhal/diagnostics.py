@@ -39,11 +39,12 @@ class Diagnostic:
         return (*self.span.sort_key(), self.code)
 
 
-def error(code: str, message: str, span: Span | None, help: str | None = None) -> Diagnostic:
+# Every diagnostic says how to fix what it reports: `help` is required.
+def error(code: str, message: str, span: Span | None, help: str) -> Diagnostic:
     return Diagnostic(Severity.ERROR, code, message, span, help)
 
 
-def warning(code: str, message: str, span: Span | None, help: str | None = None) -> Diagnostic:
+def warning(code: str, message: str, span: Span | None, help: str) -> Diagnostic:
     return Diagnostic(Severity.WARNING, code, message, span, help)
 
 

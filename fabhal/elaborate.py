@@ -372,7 +372,12 @@ class _Elaborator:
         for name, (value, span) in args.items():
             if name not in known:
                 suggestion = did_you_mean(name, known)
-                help_text = f"did you mean `{suggestion}`?" if suggestion else None
+                listed = ", ".join(f"`{p}`" for p in known)
+                help_text = (
+                    f"did you mean `{suggestion}`?"
+                    if suggestion
+                    else (f"it takes {listed}" if known else f"`{definition.name}` takes no arguments")
+                )
                 raise FabhalError(
                     [error("E211", f"`{definition.name}` has no parameter `{name}`", span, help_text)]
                 )
@@ -381,7 +386,14 @@ class _Elaborator:
             if p.name not in inner.values:
                 if p.default is None:
                     raise FabhalError(
-                        [error("E211", f"`{definition.name}` needs a value for `{p.name}`", call.span, None)]
+                        [
+                            error(
+                                "E211",
+                                f"`{definition.name}` needs a value for `{p.name}`",
+                                call.span,
+                                f"write `{definition.name}({p.name}: ...)`",
+                            )
+                        ]
                     )
                 inner.values[p.name] = self._argument(ast.Argument(p.name, p.default, p.span), inner)
             bound = inner.values[p.name]
@@ -547,7 +559,16 @@ def _callee(call: ast.Call, scope: _Scope) -> str:
 def _whole(expr: ast.Expr, scope: _Scope) -> int:
     value = number(expr, scope.numbers())
     if value != int(value):
-        raise FabhalError([error("E308", f"expected a whole number, found {value:g}", expr.span, None)])
+        raise FabhalError(
+            [
+                error(
+                    "E308",
+                    f"expected a whole number, found {value:g}",
+                    expr.span,
+                    f"write {math.floor(value):g} or {math.ceil(value):g}",
+                )
+            ]
+        )
     return int(value)
 
 
@@ -574,7 +595,16 @@ def _domain_values(domain: ast.Domain, scope: _Scope) -> list[Value | str]:
     start, stop = number(domain.start, scope.numbers()), number(domain.stop, scope.numbers())
     count = _whole(domain.count, scope)
     if count < 1:
-        raise FabhalError([error("E310", "linspace needs a count of at least 1", domain.count.span, None)])
+        raise FabhalError(
+            [
+                error(
+                    "E310",
+                    "linspace needs a count of at least 1",
+                    domain.count.span,
+                    "write `linspace(START, STOP, COUNT)` with COUNT the number of values, e.g. 5",
+                )
+            ]
+        )
     _limit_domain(count, domain.count.span)
     step = (stop - start) / (count - 1) if count > 1 else 0.0
     return [start + k * step for k in range(count)]
@@ -616,7 +646,7 @@ def _parse_binding(text: str) -> Value | str:
     return value if math.isfinite(value) else text  # `-D e=nan` is no number: not in any domain
 
 
-def _params_help(scope: _Scope) -> str | None:
+def _params_help(scope: _Scope) -> str:
     names = [k for k in scope.values]
     return f"its parameters: {', '.join(names)}" if names else "this program declares no parameters"
 

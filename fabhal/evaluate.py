@@ -87,7 +87,9 @@ def number(expr: ast.Expr, env: Mapping[str, Value]) -> float:
     """Evaluate an expression that must be a number (not true/false)."""
     value = evaluate(expr, env)
     if isinstance(value, bool):
-        raise FabhalError([error("E223", "expected a number, found true/false", expr.span, None)])
+        raise FabhalError(
+            [error("E223", "expected a number, found true/false", expr.span, "write a number here")]
+        )
     return float(value)
 
 
@@ -105,7 +107,7 @@ def _call(expr: ast.FunctionCall, env: Mapping[str, Value]) -> float:
                     "E222",
                     f"`{expr.function}` takes {arity} value{'s' if arity > 1 else ''}, not {len(expr.args)}",
                     expr.span,
-                    None,
+                    f"write `{expr.function}({', '.join(['x', 'y'][:arity])})`",
                 )
             ]
         )
@@ -114,5 +116,12 @@ def _call(expr: ast.FunctionCall, env: Mapping[str, Value]) -> float:
         return float(function(*values))
     except ValueError:
         raise FabhalError(
-            [error("E221", f"`{expr.function}` is undefined for {values[0]:g}", expr.span, None)]
+            [
+                error(
+                    "E221",
+                    f"`{expr.function}` is undefined for {values[0]:g}",
+                    expr.span,
+                    "`sqrt` needs a value of at least 0",
+                )
+            ]
         ) from None

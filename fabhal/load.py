@@ -58,15 +58,21 @@ def read_source(path: Path) -> SourceFile:
     except FileNotFoundError:
         raise InputError([error("E001", f"no such file: {name}", None, "check the path")]) from None
     except IsADirectoryError:
-        raise InputError([error("E001", f"{name} is a directory, not a .fhl file", None)]) from None
+        raise InputError(
+            [error("E001", f"{name} is a directory, not a .fhl file", None, "name a .fhl file inside it")]
+        ) from None
     except PermissionError:
-        raise InputError([error("E001", f"cannot read {name}: permission denied", None)]) from None
+        raise InputError(
+            [error("E001", f"cannot read {name}: permission denied", None, "check the file's permissions")]
+        ) from None
     except UnicodeDecodeError as exc:
         raise InputError(
             [error("E002", f"{name} is not UTF-8 text (byte {exc.start})", None, "save the file as UTF-8")]
         ) from None
     except OSError as exc:
-        raise InputError([error("E001", f"cannot read {name}: {exc.strerror}", None)]) from None
+        raise InputError(
+            [error("E001", f"cannot read {name}: {exc.strerror}", None, "check the path and the disk")]
+        ) from None
 
 
 class _Loader:
@@ -106,7 +112,12 @@ class _Loader:
                     self.load(candidate)
                 except InputError as exc:  # unreadable import: report it at the import line
                     self.diagnostics.append(
-                        error("E003", exc.diagnostics[0].message, statement.span, exc.diagnostics[0].help)
+                        error(
+                            "E003",
+                            exc.diagnostics[0].message,
+                            statement.span,
+                            exc.diagnostics[0].help or "fix the imported file",
+                        )
                     )
                 return
         searched = ", ".join(display_name(c.parent) for c in candidates)

@@ -161,6 +161,37 @@ def variant_of(kind: str, flags: Mapping[str, bool]) -> str:
 # ---------------------------------------------------------------- validation
 
 
+_RULE_FIX = {
+    "positive": "a value above 0",
+    "nonnegative": "a value of 0 or more",
+    "arc_angle": "an angle above 0 and at most 360",
+}
+_RULE_WORDS = {"positive": "be positive", "nonnegative": "not be negative", "arc_angle": "be in (0, 360]"}
+_PAIR_FIX = {
+    "thickness": "make `thickness` (the wire's radius) smaller than `arc_radius`",
+    "tip": "write `tip: 0` (the tip at the arc's start) or `tip` equal to `arc_angle` (at its end)",
+}
+
+
+def param_fix(kind: str, name: str, value: float) -> str:
+    """How to mend a shape parameter that `check_params` rejected: its own rule
+    if `value` breaks it, else the rule that relates it to another parameter."""
+    spec = next(p for p in KINDS[kind].params if p.name == name)
+    if _follows_rule(spec.rule, value):
+        fix = _PAIR_FIX[name]
+    else:
+        fix = f"give `{name}` {_RULE_FIX[spec.rule]} ({spec.unit})"
+    return f"{fix}; docs/primitives.md describes each {kind} parameter"
+
+
+def _follows_rule(rule: str, value: float) -> bool:
+    if rule == "positive":
+        return value > 0
+    if rule == "nonnegative":
+        return value >= 0
+    return 0 < value <= 360
+
+
 def check_params(kind: str, params: Mapping[str, float]) -> list[tuple[str | None, str]]:
     """Problems with a primitive's numeric parameters: (parameter or None, message)."""
     spec = KINDS[kind]
@@ -171,12 +202,8 @@ def check_params(kind: str, params: Mapping[str, float]) -> list[tuple[str | Non
                 problems.append((None, f"missing parameter `{p.name}` ({p.unit})"))
             continue
         value = params[p.name]
-        if p.rule == "positive" and not value > 0:
-            problems.append((p.name, f"{p.name} == {value:g}, but must be positive"))
-        elif p.rule == "nonnegative" and not value >= 0:
-            problems.append((p.name, f"{p.name} == {value:g}, but must not be negative"))
-        elif p.rule == "arc_angle" and not 0 < value <= 360:
-            problems.append((p.name, f"{p.name} == {value:g}, but must be in (0, 360]"))
+        if not _follows_rule(p.rule, value):
+            problems.append((p.name, f"{p.name} == {value:g}, but must {_RULE_WORDS[p.rule]}"))
     if kind in ("hook", "hole") and {"arc_radius", "thickness"} <= params.keys():
         if params["thickness"] >= params["arc_radius"]:
             problems.append(

@@ -60,6 +60,7 @@ def test_syntax_examples_produce_their_code(code: str, section: str) -> None:
     with pytest.raises(FabhalError) as caught:
         parse_text(first_example(section), "docs/errors.md")
     assert caught.value.diagnostics[0].code == code
+    assert all(d.help for d in caught.value.diagnostics), "every diagnostic says how to fix it"
 
 
 CHECK_SECTIONS = sorted(
@@ -73,6 +74,7 @@ def test_check_examples_produce_their_code(code: str, section: str, tmp_path: Pa
     program.write_text(first_example(section))
     result = api.check(program)
     assert code in [d.code for d in result.diagnostics], result.diagnostics
+    assert all(d.help for d in result.diagnostics), "every diagnostic says how to fix it"
 
 
 def test_primitives_page_names_every_kind_parameter_and_flag() -> None:

@@ -379,12 +379,18 @@ RULES: tuple[Rule, ...] = (
 
 def _generic(ctx: ErrorContext) -> Diagnostic:
     if ctx.token.type == "$END":
-        return error("E106", "the file ends in the middle of a statement", ctx.span, None)
+        return error(
+            "E106",
+            "the file ends in the middle of a statement",
+            ctx.span,
+            "finish the last statement, and close every `(`, `[` and `{` it opened",
+        )
     return error(
         "E100",
         f"expected {expected_words(ctx.expected)}, found {ctx.found}",
         ctx.span,
-        None,
+        "write one statement per line: `NAME = Part()`, `connect a.p -- b.q`, `target ...`, "
+        "`environment ...` (docs/language.md has them all)",
     )
 
 
