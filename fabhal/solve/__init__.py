@@ -19,6 +19,7 @@ from fabhal.diagnostics import Diagnostic, Severity, error, warning
 from fabhal.kinematics.frames import Array
 from fabhal.meshes import mass_properties
 from fabhal.model import Joint, Model
+from fabhal.solve import reach
 from fabhal.solve import target as target_mod
 from fabhal.solve.spacing import Spacing, spacing_constraints, spacing_values, spread
 from fabhal.solve.steps import (
@@ -162,6 +163,9 @@ def _solve_once(model: Model, options: SolveOptions, loop_start: Array | None) -
     x = step1.full(v)
     if late:
         notes.append(_late(options))
+    elif reach.out_of_reach(target_mod.errors(goal, target_mod.achieved(goal, model.part_frames(x)))):
+        options.report("step 1: the target is out of reach; finding what limits it")
+        notes.append(reach.diagnose(step1, goal, x))
 
     equilibrium = None
     at_bound: tuple[int, ...] = ()

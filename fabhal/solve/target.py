@@ -44,6 +44,7 @@ class TargetGoal:
     primitive: Primitive | None  # None: the part's own frame
     requested: Array  # (4, 4) world frame
     source: Target
+    rotation_weight: float = ROTATION_WEIGHT_MM  # 0: fit the position alone
 
     @property
     def symmetry(self) -> tuple[str, str, bool] | None:
@@ -95,7 +96,7 @@ def _geodesic(a: Array, b: Array) -> float:
 def residual(goal: TargetGoal, frame: Array) -> Array:
     """Smooth residual whose zero set is the requested frame up to symmetry."""
     rotation_part = _rotation_residual(goal, frame[:3, :3])
-    return np.concatenate([frame[:3, 3] - goal.requested[:3, 3], ROTATION_WEIGHT_MM * rotation_part])
+    return np.concatenate([frame[:3, 3] - goal.requested[:3, 3], goal.rotation_weight * rotation_part])
 
 
 def residual_jacobian(goal: TargetGoal, model: Model, fwd: Forward) -> Array:
@@ -107,7 +108,7 @@ def residual_jacobian(goal: TargetGoal, model: Model, fwd: Forward) -> Array:
         d_residual = (d_rotation @ _AXES[goal.symmetry[1]]).T  # only the axis counts
     else:
         d_residual = d_rotation.reshape(len(d_frames), 9).T
-    return np.vstack([d_position, ROTATION_WEIGHT_MM * d_residual])
+    return np.vstack([d_position, goal.rotation_weight * d_residual])
 
 
 def _rotation_residual(goal: TargetGoal, rotation: Array) -> Array:

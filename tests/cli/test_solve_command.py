@@ -60,7 +60,8 @@ def test_a_hack_that_falls_apart_exits_one(tmp_path: Path) -> None:
     assert run.returncode == 1
     data = json.loads(run.stdout)
     assert data["status"] == "falls_apart"
-    assert [d["code"] for d in data["diagnostics"]] == ["E501"]
+    # E501, and W505: the requested rot (0, 0, 0) is not how the hook hangs
+    assert sorted(d["code"] for d in data["diagnostics"]) == ["E501", "W505"]
     # the hook slides to the rod's end (its tilt may also rest on an end: the two
     # tilts of a hook on a rod add up, so the energy does not say which one turns)
     assert "rod.t" in data["connections"][0]["at_bound"]

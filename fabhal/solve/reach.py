@@ -1,0 +1,95 @@
+"""When step 1 cannot bring the target to its requested frame: by how much,
+and what limits it (the parts' reach, or the target's requested rotation).
+
+Out of reach means farther than a builder would place by eye (REACH_MM,
+REACH_DEG). To tell the two limits apart, the position alone is fitted from
+step 1's result: if it then comes within REACH_MM, the requested rotation is
+what cannot be met; otherwise the parts cannot get there at all, and the
+distance from the support they hang from says whether they are too short or
+cannot fold close enough.
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+
+from fabhal.diagnostics import Diagnostic, warning
+from fabhal.kinematics.frames import Array
+from fabhal.model import Model
+from fabhal.solve import target as target_mod
+from fabhal.solve.steps import Problem, fit_target
+
+# a builder places and aims a hack by eye to about a centimetre and ten degrees;
+# a fit this close is reported as reached (the table's error says how close)
+REACH_MM = 10.0
+REACH_DEG = 10.0
+
+
+def out_of_reach(errors: tuple[float, float]) -> bool:
+    position, rotation = errors
+    return position > REACH_MM or rotation > REACH_DEG
+
+
+def diagnose(problem: Problem, goal: target_mod.TargetGoal, x: Array) -> Diagnostic:
+    """W505 for step 1's best `x`, which is out of reach."""
+    model = problem.model
+    position, rotation = target_mod.errors(goal, target_mod.achieved(goal, model.part_frames(x)))
+    free_turn = replace(goal, rotation_weight=0.0)
+    v, _ = fit_target(problem, free_turn, [x[problem.free]])
+    loose = problem.full(v)
+    frames = model.part_frames(loose)
+    loose_position = target_mod.errors(goal, target_mod.achieved(goal, frames))[0]
+    target = model.program.targets[0]
+    at_best = f"at best the target is {position:.0f} mm and {rotation:.0f} degrees from it"
+    if min(loose_position, position) <= REACH_MM:  # turned freely it gets there: the rotation limits
+        return warning(
+            "W505",
+            f"the requested rotation is out of reach: {at_best}",
+            target.span,
+            f"the parts can bring the target within {min(loose_position, position):.0f} mm of the requested "
+            "position, but not turned as asked: how it is held sets its rotation; ask for the "
+            "rotation it takes there (see the result), or connect it differently",
+        )
+    return warning(
+        "W505",
+        f"the requested position is out of reach: {at_best}",
+        target.span,
+        _what_limits(model, goal, loose, frames, loose_position),
+    )
+
+
+def _what_limits(model: Model, goal: target_mod.TargetGoal, x: Array, frames: Array, gap: float) -> str:
+    """The support the target hangs from, and how far the parts get from it."""
+    support, anchor = _support(model, goal.part, x, frames)
+    requested = goal.requested[:3, 3]
+    reached = target_mod.achieved(goal, frames)[:3, 3]
+    wanted, got = float(np.linalg.norm(requested - anchor)), float(np.linalg.norm(reached - anchor))
+    nearest = f"even turned freely, it stays {gap:.0f} mm away"
+    if got < wanted - 0.5 * gap:
+        return (
+            f"{nearest}: the request is {wanted:.0f} mm from `{support}`, where the hack hangs, and "
+            f"the parts reach {got:.0f} mm from it; add parts or use longer ones"
+        )
+    if got > wanted + 0.5 * gap:
+        return (
+            f"{nearest}: the request is {wanted:.0f} mm from `{support}`, where the hack hangs, but the "
+            f"parts keep the target at least {got:.0f} mm from it; use fewer or shorter parts"
+        )
+    return f"{nearest}, in a direction the connections cannot move it; move the request or the support"
+
+
+def _support(model: Model, part: int, x: Array, frames: Array) -> tuple[str, Array]:
+    """The environment the part hangs from along the tree, and the point of it
+    that carries the hack (the environment side of that connection), in world."""
+    parent_edges = {model.tree_child[edge.joint]: edge for edge in model.tree}
+    while part in parent_edges:
+        parent, _ = model.placed_sides(parent_edges[part])
+        if model.parts[parent.part].environment:
+            return model.parts[parent.part].name, model.connector_frame(parent, x, frames)[:3, 3]
+        part = parent.part
+    return model.parts[part].name, frames[part][:3, 3]
+
+
+__all__ = ["REACH_DEG", "REACH_MM", "diagnose", "out_of_reach"]
