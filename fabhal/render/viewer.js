@@ -10,6 +10,22 @@
   console.error = (...args) => { record(args.join(" ")); consoleError(...args); };
   document.body.dataset.errors = "";
 
+  // Each connection's DoF values grouped by the side (part.primitive) they belong
+  // to: slides ("t", "t1", "t2") as the fraction of the primitive's length, the
+  // others as angles in degrees, already within their range in the summary.
+  function dofsBySide(connection) {
+    const sides = new Map();
+    for (const [name, value] of Object.entries(connection.dofs)) {
+      const cut = name.lastIndexOf(".");
+      const owner = name.slice(0, cut);
+      const dof = name.slice(cut + 1);
+      const shown = dof.startsWith("t") ? `${dof} ${value.toFixed(3)} along` : `${dof} ${value.toFixed(1)}\u00b0`;
+      if (!sides.has(owner)) sides.set(owner, []);
+      sides.get(owner).push(shown);
+    }
+    return sides;
+  }
+
   const data = JSON.parse(document.getElementById("scene-data").textContent);
   const summary = data.summary;
   const canvas = document.getElementById("canvas");
@@ -18,7 +34,14 @@
 
   const gl = canvas.getContext("webgl2", { antialias: true, preserveDrawingBuffer: true });
   if (!gl) {
-    record("WebGL 2 is not available in this browser");
+    // a visible message, not a blank page; the panel still shows the result
+    const message = document.createElement("div");
+    message.id = "no-webgl";
+    message.textContent = "This browser cannot show the 3D view: it offers no WebGL 2 (or has it " +
+      "switched off). The panel on the right has the result; `fabhal render PROGRAM -o picture.png` " +
+      "draws it as a picture instead.";
+    canvas.replaceWith(message);
+    document.body.dataset.webgl = "unavailable";
     return;
   }
 
@@ -284,12 +307,16 @@
     const list = add("ul");
     for (const connection of summary.connections || []) {
       const item = document.createElement("li");
-      const dofs = Object.entries(connection.dofs).map(([name, value]) => `${name.split(".").pop()}=${value.toFixed(2)}`).join(" ");
-      item.innerHTML = "";
       const code = document.createElement("code");
       code.textContent = `${connection.a} -- ${connection.b}`;
       item.appendChild(code);
-      item.appendChild(document.createTextNode(` ${dofs}${connection.at_bound.length ? " (at an end)" : ""}`));
+      if (connection.at_bound.length) item.appendChild(document.createTextNode(" (at an end)"));
+      for (const [owner, values] of dofsBySide(connection)) {
+        const line = document.createElement("div");
+        line.className = "dofs";
+        line.textContent = `${owner}: ${values.join(", ")}`;
+        item.appendChild(line);
+      }
       list.appendChild(item);
     }
     add("h2", "parts").style.fontSize = "15px";

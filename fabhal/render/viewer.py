@@ -68,6 +68,9 @@ _PAGE = """<!DOCTYPE html>
   .falls_apart, .infeasible, .error {{ color: #c81e1e; }}
   #panel ul {{ padding-left: 16px; margin: 4px 0; }} #panel li {{ margin: 2px 0; }}
   code {{ font-size: 12px; }}
+  .dofs {{ color: #555; font-size: 12px; }}
+  #no-webgl {{ margin: 80px 40px; padding: 16px; border: 1px solid #c81e1e; border-radius: 6px;
+               color: #c81e1e; background: #fff; max-width: 460px; }}
   #tip {{ position: absolute; pointer-events: none; background: #222; color: #fff; padding: 3px 7px;
           border-radius: 4px; font-size: 13px; display: none; white-space: nowrap; }}
   #help {{ position: absolute; left: 10px; bottom: 8px; color: #777; font-size: 12px; }}

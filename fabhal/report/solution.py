@@ -10,6 +10,7 @@ import numpy as np
 from fabhal.diagnostics import Diagnostic, to_json
 from fabhal.kinematics.frames import matrix_euler
 from fabhal.model import Model
+from fabhal.primitives import Dof
 from fabhal.solve import Solution
 
 if TYPE_CHECKING:
@@ -52,6 +53,15 @@ def to_dict(result: SolveOutcome, program: str) -> dict[str, Any]:
     return out
 
 
+def _within_range(dof: Dof, value: float) -> float:
+    """A turn that goes all the way round (a spin, a ring's theta) as the angle in
+    its range [low, high): the solver may leave it at 449.8 or -90, meaning 89.8 or 270."""
+    if not dof.periodic:
+        return value
+    wrapped = dof.low + (value - dof.low) % (dof.high - dof.low)
+    return dof.low if round(wrapped, 6) >= dof.high else wrapped  # 359.9999999 is 0
+
+
 def _solution(solution: Solution) -> dict[str, Any]:
     model = solution.model
     goal = solution.goal
@@ -81,7 +91,7 @@ def _solution(solution: Solution) -> dict[str, Any]:
         for side, end in ((joint.a, joint.connection.a), (joint.b, joint.connection.b)):
             for i, dof in zip(side.dof_indices, side.primitive.dofs, strict=True):
                 name = f"{end}.{dof.name}"
-                dofs[name] = round(float(solution.x[i]), 6)
+                dofs[name] = round(_within_range(dof, float(solution.x[i])), 6) + 0.0
                 if i in resting:
                     at_bound.append(name)
         connections.append(

@@ -175,3 +175,60 @@ def test_render_of_a_program_with_errors_draws_nothing(tmp_path: Path) -> None:
     assert run.returncode == 1
     assert "nothing to draw" in run.stderr and "rodd" in run.stderr
     assert not (tmp_path / "out.png").exists()
+
+
+def _dump_dom(chromium: str, page: Path, profile: Path, *extra: str) -> str:
+    run = subprocess.run(
+        [chromium, *CHROMIUM_FLAGS, *extra, f"--user-data-dir={profile}", "--dump-dom", page.as_uri()],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert "<body" in run.stdout, run.stderr[-2000:]
+    return run.stdout
+
+
+def test_html_viewer_names_each_value_by_its_part_and_primitive(
+    mug: Any, tmp_path: Path, chromium: str
+) -> None:
+    path = tmp_path / "mug.html"
+    _render(mug, path)
+    dom = _dump_dom(chromium, path, tmp_path / "profile")
+    lines = re.findall(r'<div class="dofs">([^<]*)</div>', dom)
+    # the rod's side: its slide as a fraction of its length and its tilt in degrees
+    assert any(re.fullmatch(r"rod: t 0\.\d{3} along, phi \d+\.\d°", line) for line in lines), lines
+    for line in lines:
+        owner, _, values = line.partition(": ")
+        assert owner in {"rod", "chain.s[1].hook2", "chain.s[1].hook1", "chain.s[2].hook2"} | {
+            "chain.s[2].hook1",
+            "s3.hook1",
+            "s3.hook2",
+            "mug.hook",
+        }, line
+        for angle in re.findall(r"(-?[\d.]+)°", values):
+            assert 0.0 <= float(angle) < 360.0, line
+
+
+def test_html_viewer_without_webgl_says_so(mug: Any, tmp_path: Path, chromium: str) -> None:
+    path = tmp_path / "mug.html"
+    _render(mug, path)
+    dom = _dump_dom(chromium, path, tmp_path / "profile", "--disable-webgl", "--disable-3d-apis")
+    assert 'data-webgl="unavailable"' in dom
+    assert "This browser cannot show the 3D view" in dom
+    assert "mug.hook -- s3.hook2" in dom  # the panel still has the result
+
+
+def test_json_angles_lie_in_their_ranges() -> None:
+    """Periodic DoFs (spins, ring thetas) are reported within [0, 360); the solver may
+    hold them anywhere: the reading nook leaves ring6's theta at about -65 degrees,
+    which is reported as about 295."""
+    result = api.solve(REPO / "programs" / "reading_nook.fhl")
+    model = result.solution.model
+    raw = {v.name: float(result.solution.x[i]) for i, v in enumerate(model.variables) if v.dof.periodic}
+    assert min(raw.values()) < 0.0 or max(raw.values()) >= 360.0  # the case this test is about
+    data = to_dict(result, "reading_nook")
+    for connection in data["connections"]:
+        for name, value in connection["dofs"].items():
+            if name in raw:
+                assert 0.0 <= value < 360.0, (name, value)
+                assert abs((value - raw[name] + 180.0) % 360.0 - 180.0) < 1e-5  # the same angle
