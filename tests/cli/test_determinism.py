@@ -1,0 +1,32 @@
+"""The same program, seed and library give byte-identical `--json` output (the
+timings aside), in separate processes: a result a user can reproduce and diff."""
+
+from __future__ import annotations
+
+import re
+
+import pytest
+
+from tests.cli.test_check_command import fabhal
+
+TIMING = re.compile(r'"timing": \{[^}]*\}')
+
+
+@pytest.mark.parametrize(
+    "program",
+    [
+        "programs/mug_hanger.fhl",  # a chain, no loops
+        "programs/reading_nook.fhl",  # loops, a fixed connection, the most DoFs
+        "programs/clip_light_xs.fhl",  # random starts
+    ],
+)
+def test_json_output_is_byte_identical_across_processes(program: str) -> None:
+    first, second = (fabhal("solve", "--json", "--seed", "3", program) for _ in range(2))
+    assert first.returncode == second.returncode == 0, first.stderr
+    assert TIMING.search(first.stdout)
+    assert TIMING.sub("", first.stdout) == TIMING.sub("", second.stdout)
+
+
+def test_check_json_is_byte_identical_across_processes() -> None:
+    first, second = (fabhal("check", "--json", "programs/reading_nook.fhl") for _ in range(2))
+    assert first.stdout == second.stdout
