@@ -210,6 +210,17 @@ class _Elaborator:
 
     def _param(self, decl: ast.ParamDecl, scope: _Scope) -> None:
         candidates = _domain_values(decl.domain, scope)
+        if not candidates:
+            raise FabhalError(
+                [
+                    error(
+                        "E310",
+                        f"the domain of `{decl.name}` is empty",
+                        decl.domain.span,
+                        "a range runs upwards, `LOW .. HIGH` with LOW at most HIGH, e.g. `1 .. 4`",
+                    )
+                ]
+            )
         # bound even when rejected below, so one bad value is one diagnostic, not a cascade
         scope.values[decl.name] = candidates[0]
         span = decl.span
