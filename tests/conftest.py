@@ -11,6 +11,8 @@ from typing import Any
 
 import pytest
 
+import fabhal  # noqa: F401  (first: pins the numeric libraries to one thread before numpy loads)
+
 REPO = Path(__file__).resolve().parent.parent
 DATA = REPO / "tests" / "data"  # reference data (MIT, see tests/data/LICENSE)
 UPDATE_GOLDEN = os.environ.get("FABHAL_UPDATE_GOLDEN") == "1"

@@ -1,0 +1,51 @@
+"""FabHaL pins the numeric libraries to one thread before numpy loads (see
+fabhal/__init__.py): faster on small matrices, and the same result whatever
+thread settings the user's environment has."""
+
+from __future__ import annotations
+
+import os
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from tests.cli.test_check_command import fabhal
+from tests.conftest import REPO
+
+MANY_THREADS = {**os.environ, "OPENBLAS_NUM_THREADS": "2", "OMP_NUM_THREADS": "2"}
+
+
+@pytest.mark.skipif(not Path("/proc/self/task").is_dir(), reason="counts threads in /proc (Linux)")
+def test_numpy_loaded_by_fabhal_runs_one_thread() -> None:
+    """OpenBLAS starts its thread pool when it loads; with the pin the process has
+    its main thread only, even when the environment asks for more."""
+    count = "import os; print(len(os.listdir('/proc/self/task')))"
+    pinned = subprocess.run(
+        [sys.executable, "-c", f"import fabhal, numpy; {count}"],
+        env=MANY_THREADS,
+        capture_output=True,
+        text=True,
+    )
+    assert pinned.stdout.strip() == "1", pinned.stderr
+    unpinned = subprocess.run(
+        [sys.executable, "-c", f"import numpy; {count}"], env=MANY_THREADS, capture_output=True, text=True
+    )
+    assert int(unpinned.stdout) > 1  # the check above can tell the difference
+
+
+def test_results_do_not_depend_on_the_environments_thread_settings() -> None:
+    program = "programs/reading_nook.fhl"
+    default = fabhal("solve", "--json", program)
+    many = subprocess.run(
+        [sys.executable, "-m", "fabhal", "solve", "--json", program],
+        cwd=REPO,
+        env=MANY_THREADS,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    timing = re.compile(r'"timing": \{[^}]*\}')
+    assert timing.sub("", default.stdout) == timing.sub("", many.stdout)
