@@ -22,7 +22,7 @@ from functools import cache
 from pathlib import Path
 
 import pytest
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
 
 from fabhal import api, cli
@@ -166,6 +166,9 @@ def assert_ends_well(text: str, directory: Path) -> None:
     result = json.loads(out, parse_constant=lambda c: pytest.fail(f"{c} in solve output:\n{text}"))
     assert result["status"] in ("solved", "falls_apart", "infeasible", "error")
     assert (status == 0) == (result["status"] == "solved")
+    event(f"solve: {result['status']}")  # the campaign's statistics (--hypothesis-show-statistics)
+    for code in sorted({d["code"] for d in result["diagnostics"]}):
+        event(f"diagnostic {code}")
 
 
 def quick(examples: int) -> settings:
