@@ -53,6 +53,14 @@ RESTORED = 1e-10  # largest |c| accepted as on the constraints (the caller's uni
 # nanometre (scaled variables are millimetres); closer, a step would stall on it
 ACTIVE = 1e-6
 RANK = 1e-9  # singular values below this fraction of the largest span no direction
+# A step or decrease test ends a least-squares search only while the model is
+# trusted this much (Levenberg-Marquardt damping at most this multiple of the
+# Gauss-Newton diagonal): a heavily damped step is short because of the damping,
+# not because the bottom is near, and stopping there was a false convergence.
+TRUSTED_DAMPING = 1.0
+# a stop counts as converged when the projected gradient is at most this, times
+# max(1, |r|) for least squares (f = |r|^2 / 2, so the gradient J^T r scales with |r|)
+STATIONARY = 1e-6
 
 
 @dataclass(frozen=True)
@@ -177,10 +185,16 @@ def minimize(
     the progress is no longer worth its cost (the caller's units and taste)."""
     problem = _Scaled.of(objective, low, high, equality, linear, scale)
     u = np.clip(np.asarray(start, dtype=float) * problem.scale, problem.low, problem.high)
+    if not np.all(np.isfinite(u)):
+        return _failure(problem, u, np.nan, 0)
     u, c, a, feasible = restore(problem, u, np.zeros(len(u), dtype=bool))
     if not feasible:
         u, c, a, feasible = _close(problem, u)
+        if not (np.all(np.isfinite(c)) and np.all(np.isfinite(a))):
+            return _failure(problem, u, np.nan, 0)
     value, gradient, hessian = problem.evaluate(u)
+    if not _finite(value, gradient, hessian):
+        return _failure(problem, u, value, 0)
     state = _Iteration(problem, hessian is None)
     state.max_step = max_step
     if hessian is None:
@@ -190,13 +204,14 @@ def minimize(
             state.start_from(curvature)
         elif state.measure is not None:
             state.start_from(state.measure(u, gradient, a))
-    stationarity, converged, iterations = np.inf, False, 0
+    stationarity, iterations = np.inf, 0
     history = [value]
+    stationary = max(gtol, STATIONARY * (1.0 if state.bfgs else max(1.0, float(np.sqrt(2.0 * value)))))
     while iterations < max_iterations:
         iterations += 1
         step, stationarity = state.step(u, gradient, hessian, a, c)
-        if stationarity <= gtol or value <= stop_below or float(np.abs(step).max(initial=0.0)) <= xtol:
-            converged = True
+        tiny = float(np.abs(step).max(initial=0.0)) <= xtol and state.trusted()
+        if stationarity <= gtol or value <= stop_below or tiny:
             break
         if (max_evaluations is not None and problem.evaluations >= max_evaluations) or (
             time.monotonic() > deadline
@@ -206,19 +221,19 @@ def minimize(
         if accepted is None:
             if state.reset(u, gradient, a):  # the model was stale: try again with a fresh one
                 continue
-            converged = True  # nothing lower along the step of a fresh model: at the bottom
-            break
+            break  # nothing lower along the step of a fresh model: converged only if stationary
         u_new, c, a_new, value_new, gradient_new, hessian, whole = accepted
         state.learn(u_new - u, gradient_new - gradient, a_new - a, hessian)
         lowered = value - value_new
         u, a, value, gradient, feasible = u_new, a_new, value_new, gradient_new, True
         history.append(value)
-        # a step cut short by a bound or a spacing says nothing about convergence
-        if whole and lowered <= ftol * abs(value):
-            converged = True
+        # a step cut short by a bound or a spacing, or shortened by heavy damping,
+        # says nothing about convergence
+        if whole and lowered <= ftol * abs(value) and state.trusted():
             break
         if stalled is not None and stalled(history):
             break
+    converged = feasible and (stationarity <= stationary or value <= stop_below)
     return Result(
         u / problem.scale,
         value,
@@ -228,6 +243,21 @@ def minimize(
         converged,
         feasible,
         state.model if state.bfgs else None,
+    )
+
+
+def _finite(value: float, gradient: Array, hessian: Array | None) -> bool:
+    return bool(
+        np.isfinite(value)
+        and np.all(np.isfinite(gradient))
+        and (hessian is None or np.all(np.isfinite(hessian)))
+    )
+
+
+def _failure(problem: _Scaled, u: Array, value: float, iterations: int) -> Result:
+    """Where the objective or the constraints are not numbers: no result to trust."""
+    return Result(
+        u / problem.scale, float(value), np.inf, iterations, problem.evaluations, False, False, None
     )
 
 
@@ -251,6 +281,10 @@ class _Iteration:
         self.fixed = np.zeros(n, dtype=bool)
         self.hessian = np.zeros((n, n))  # of the quadratic model of the last step
         self.max_step = np.inf  # longest move of a scaled variable in one step
+        # least squares: how far the last steps showed the model to hold (halved where
+        # a step had to be shortened, doubled after a step it predicted well); this,
+        # not more damping, keeps the next step from needing the same halvings
+        self.radius = np.inf
         self.gauss_newton = np.zeros((n, n))  # J^T J at the last point (least squares)
         self.corrected = False  # least squares: whether the model includes S (NL2SOL's choice)
         # measures the Hessian of the Lagrangian at (u, gradient, dc/du), if BFGS should start from it
@@ -336,7 +370,8 @@ class _Iteration:
         projected back onto the loops: (point, c, dc/du, f, its gradient, its
         Hessian, whether the whole step was taken), or None when nothing is lower."""
         problem = self.problem
-        alpha = min(1.0, _longest(problem, u, step), self.max_step / max(float(np.abs(step).max()), 1e-300))
+        length = max(float(np.abs(step).max()), 1e-300)
+        first = alpha = min(1.0, _longest(problem, u, step), min(self.max_step, self.radius) / length)
         g_rows, h = problem.linear_rows()
         while alpha > 1e-10:
             clipped = np.clip(u + alpha * step, problem.low, problem.high)
@@ -349,15 +384,18 @@ class _Iteration:
             )
             if feasible and np.all(g_rows @ trial + h >= -ACTIVE):
                 value_new, gradient_new, hessian = problem.evaluate(trial)
-                if value_new <= value + ARMIJO * slope:
+                if _finite(value_new, gradient_new, hessian) and value_new <= value + ARMIJO * slope:
                     if not self.bfgs:
                         predicted = -(slope + 0.5 * float(moved @ self.hessian @ moved))
-                        self._adapt(alpha == 1.0, (value - value_new) / max(predicted, 1e-300))
+                        ratio = (value - value_new) / max(predicted, 1e-300)
+                        self._adapt(alpha == 1.0, ratio)
                         self._choose_model(moved, slope, value - value_new)
+                        if alpha < first:
+                            self.radius = 2.0 * float(np.abs(moved).max())
+                        elif ratio > 0.75:
+                            self.radius *= 2.0
                     return trial, c, a, value_new, gradient_new, hessian, alpha == 1.0
-            alpha *= 0.5
-            if not self.bfgs:
-                self.damping *= 4.0
+            alpha *= 0.5  # the damping stays: `_adapt` judges the step actually taken
         return None
 
     def _choose_model(self, moved: Array, slope: float, lowered: float) -> None:
@@ -370,12 +408,16 @@ class _Iteration:
         self.corrected = abs(corrected - lowered) < abs(plain - lowered)
 
     def _adapt(self, full_step: bool, ratio: float) -> None:
-        """Levenberg-Marquardt: trust the quadratic model more where it predicted well
-        (the line search has already damped more for every halving of the step)."""
+        """Levenberg-Marquardt: trust the quadratic model more where it predicted
+        well, less where it did not or its step had to be shortened."""
         if full_step and ratio > 0.75:
             self.damping = max(self.damping / 3.0, 1e-12)
         elif ratio < 0.25:
             self.damping *= 2.0
+
+    def trusted(self) -> bool:
+        """Whether a short step or a small decrease can mean the bottom is near."""
+        return self.bfgs or self.damping <= TRUSTED_DAMPING
 
     def reset(self, u: Array, gradient: Array, a: Array) -> bool:
         """After a failed line search: start the model again if that may help."""
@@ -583,6 +625,8 @@ def restore(problem: _Scaled, u: Array, fixed: Array) -> tuple[Array, Array, Arr
     previous = np.inf
     for _ in range(RESTORE_ITERATIONS):
         error = float(np.abs(c).max(initial=0.0))
+        if not np.isfinite(error) or not np.all(np.isfinite(a)):
+            break  # not a number: no projection to make
         if error <= RESTORED:
             return u, c, a, True
         if error >= previous:

@@ -219,3 +219,62 @@ def test_a_bound_with_no_force_on_it_does_not_hide_the_way_down() -> None:
     low = np.array([0.0, -np.inf])
     values, _ = tangent_curvature(height, np.array([0.0, 1.0]), low, FREE[1], equality=unit_circle)
     assert values[0] == pytest.approx(-1.0, abs=1e-4)
+
+
+# ---------------------------------------------------------------- failures are failures (issue 19)
+
+
+def test_a_nan_constraint_is_a_failure_not_a_result() -> None:
+    def broken(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        return np.array([np.nan]), np.array([[np.nan, np.nan]])
+
+    result = minimize(x_plus_y, np.array([1.0, 1.0]), np.full(2, -5.0), np.full(2, 5.0), equality=broken)
+    assert not result.converged and not result.feasible
+
+
+def test_an_unsatisfiable_constraint_is_a_failure_not_a_bound_corner() -> None:
+    """x^2 + y^2 = -1 has no solution: the closest the search gets (the origin) is
+    not a result."""
+
+    def impossible(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        return np.array([x @ x + 1.0]), np.array([2 * x])
+
+    result = minimize(x_plus_y, np.array([1.0, 1.0]), np.full(2, -5.0), np.full(2, 5.0), equality=impossible)
+    assert not result.converged and not result.feasible
+
+
+def test_a_nan_objective_is_a_failure() -> None:
+    def nan_objective(x: np.ndarray) -> tuple[float, np.ndarray, None]:
+        return float("nan"), np.full(2, np.nan), None
+
+    result = minimize(nan_objective, np.array([1.0, 1.0]), *FREE)
+    assert not result.converged
+
+
+def test_a_nan_met_on_the_way_is_stepped_back_from() -> None:
+    """f = x^2 + y^2 where x <= 3, undefined (NaN) beyond: from (2, 2) the first full
+    step of BFGS may land beyond 3; the search must still end at the origin."""
+
+    def partial(x: np.ndarray) -> tuple[float, np.ndarray, None]:
+        if x[0] > 3.0:
+            return float("nan"), np.full(2, np.nan), None
+        return float(x @ x), 2 * x, None
+
+    result = minimize(partial, np.array([2.0, 2.0]), *FREE, gtol=1e-10)
+    assert result.converged and np.allclose(result.x, 0.0, atol=1e-6)
+
+
+def test_a_large_residual_valley_is_not_left_early() -> None:
+    """Least squares with a residual that cannot vanish (r = (10 (y - x^2), 1 - x, 5)):
+    the minimum is Rosenbrock's (1, 1) with |r|^2 / 2 = 12.5. A search that damped
+    itself after every shortened step stopped short of it and called that
+    converged; a converged result must have a vanishing projected gradient."""
+
+    def residual(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        r, jacobian = rosenbrock_residual(x)
+        return np.append(r, 5.0), np.vstack([jacobian, np.zeros(2)])
+
+    result = minimize(least_squares_objective(residual), np.array([-1.2, 1.0]), *FREE, ftol=1e-12, xtol=1e-12)
+    assert result.converged
+    assert result.stationarity <= 1e-6 * 5.0  # STATIONARY x |r|
+    assert np.allclose(result.x, [1.0, 1.0], atol=1e-5)

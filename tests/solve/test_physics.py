@@ -191,7 +191,7 @@ def test_of_equally_low_configurations_the_one_nearest_the_request_is_kept(
     wherever the solver's path left it; with it, it turns back towards the
     request at the same energy (1e-6 J: the settles stop at 1e-4 of the weight
     per mm) and stays at rest."""
-    program = REPO / "programs" / "clip_light_s.fhl"
+    program = REPO / "programs" / "clip_light_l.fhl"  # loose: 21.7 degrees off; turned: 7.8
     monkeypatch.setattr(solve_module, "TARGET_PULL", 0.0)
     loose = api.solve(program).solution
     monkeypatch.undo()
