@@ -135,31 +135,12 @@ def _solve_once(model: Model, options: SolveOptions, loop_start: Array | None) -
     deadline = started + options.time_limit if options.time_limit else float("inf")
     goal = target_mod.goal_of(model)
     masses, centres = _mass_table(model)
-    rng = np.random.default_rng(options.seed)
     notes: list[Diagnostic] = []
 
-    x0 = model.x_default()
-    spacing = spacing_constraints(model, spread(spacing_constraints(model, x0), x0))
-    x0 = spread(spacing, x0)
-    starts = [_first_start(model, x0, spacing, loop_start, options.seed) if model.closures else x0]
-    low, high = model.bounds()
-    # with loops every start is closed first and fitted under constraints: fewer, dearer starts
-    for _ in range(EXTRA_STARTS if not model.closures else 1):
-        random = rng.uniform(np.where(np.isfinite(low), low, 0.0), np.where(np.isfinite(high), high, 360.0))
-        random[list(model.pinned)] = x0[list(model.pinned)]
-        if model.closures:
-            closing = close_loops(
-                model, options.seed, starts=1, x0=random, evaluations=RANDOM_CLOSE_EVALUATIONS
-            )
-            if not closing.closed:
-                continue  # fitting from an open start would close its loops all over again
-            random = closing.x
-        starts.append(random)
-
-    free = np.array([i for i in range(len(model.variables)) if i not in model.pinned], dtype=int)
-    step1 = Problem(model, free, x0.copy(), spacing, deadline)
+    step1, starts = step_one(model, options.seed, loop_start, deadline)
+    spacing, free = step1.spacing, step1.free
     options.report("step 1: bringing the target to its frame")
-    v, late = fit_target(step1, goal, _distinct([s[free] for s in starts]))
+    v, late = fit_target(step1, goal, starts)
     x = step1.full(v)
     if late:
         notes.append(_late(options))
@@ -216,6 +197,32 @@ def _solve_once(model: Model, options: SolveOptions, loop_start: Array | None) -
         falls,
         tuple(diagnostics),
     )
+
+
+def step_one(
+    model: Model, seed: int, loop_start: Array | None = None, deadline: float = float("inf")
+) -> tuple[Problem, list[Array]]:
+    """Step 1's problem (the DoFs that are not pinned, parts sharing a primitive
+    kept apart) and its starts over those DoFs: the spread-out defaults (with
+    loops: closed), then seeded random points (with loops: those that close)."""
+    rng = np.random.default_rng(seed)
+    x0 = model.x_default()
+    spacing = spacing_constraints(model, spread(spacing_constraints(model, x0), x0))
+    x0 = spread(spacing, x0)
+    starts = [_first_start(model, x0, spacing, loop_start, seed) if model.closures else x0]
+    low, high = model.bounds()
+    # with loops every start is closed first and fitted under constraints: fewer, dearer starts
+    for _ in range(EXTRA_STARTS if not model.closures else 1):
+        random = rng.uniform(np.where(np.isfinite(low), low, 0.0), np.where(np.isfinite(high), high, 360.0))
+        random[list(model.pinned)] = x0[list(model.pinned)]
+        if model.closures:
+            closing = close_loops(model, seed, starts=1, x0=random, evaluations=RANDOM_CLOSE_EVALUATIONS)
+            if not closing.closed:
+                continue  # fitting from an open start would close its loops all over again
+            random = closing.x
+        starts.append(random)
+    free = np.array([i for i in range(len(model.variables)) if i not in model.pinned], dtype=int)
+    return Problem(model, free, x0.copy(), spacing, deadline), _distinct([s[free] for s in starts])
 
 
 def _first_start(
