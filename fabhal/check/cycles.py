@@ -4,7 +4,10 @@ then a closure solve from up to 16 seeded starts.
 
 A part on a loop is a link between the two connectors the loop passes
 through; its length can vary only within the range those connectors reach
-(sampled over their degrees of freedom). All environments are one rigid link.
+(sampled over their degrees of freedom, then widened by the sampling's
+resolution so that the range contains every length the part can take: a
+quick reject must never refuse a loop that closes). All environments are
+one rigid link.
 """
 
 from __future__ import annotations
@@ -25,6 +28,7 @@ MAX_STARTS = 16
 CLOSED_MM = 1e-6  # a loop counts as closed when every residual is below this (mm, or mm-equivalent)
 CLOSE_EVALUATIONS = 200  # per start of the closure solve
 _SLACK_MM = 1e-3  # tolerance on link ranges, as the reference
+Samples = tuple[Array, float]  # connector positions and their grid's resolution (mm)
 
 
 @dataclass(frozen=True)
@@ -100,30 +104,51 @@ def _node(model: Model, part: int) -> int:
 # ---------------------------------------------------------------- link ranges
 
 
-def _samples(side: Side) -> Array:
-    """Connector positions of a primitive (in its part frame) over a grid of its DoFs."""
+def _samples(side: Side) -> Samples:
+    """Connector positions of a primitive (in its part frame) over a grid of its
+    DoFs, and the grid's resolution: the longest distance between neighbouring
+    samples. Every reachable position lies within that distance of a sample (it
+    is within half a grid cell of one along each DoF, and a step along a DoF moves
+    the connector at most as far as between neighbours: arcs of at most 45
+    degrees, whose length exceeds their chord by under 3 %)."""
     axes = []
     for dof in side.primitive.dofs:
         if dof.periodic:
             axes.append(np.linspace(0.0, 360.0, 12, endpoint=False))
         else:
             axes.append(np.linspace(dof.low, dof.high, 7))
+    shape = tuple(len(axis) for axis in axes)
     grid = np.array(list(itertools.product(*axes)), dtype=float)
-    return side.primitive.connector_frames(grid)[:, :3, 3]
+    points = side.primitive.connector_frames(grid)[:, :3, 3].reshape(*shape, 3)
+    resolution = 0.0
+    for k, dof in enumerate(side.primitive.dofs):
+        n = shape[k]
+        if dof.periodic:  # the last sample's neighbour is the first
+            here, following = points, np.roll(points, -1, axis=k)
+        else:
+            here, following = points.take(range(n - 1), axis=k), points.take(range(1, n), axis=k)
+        if here.size:
+            resolution = max(resolution, float(np.linalg.norm(following - here, axis=-1).max()))
+    return points.reshape(-1, 3), resolution
 
 
-def _positions(model: Model, side: Side) -> Array:
-    points = _samples(side)
+def _positions(model: Model, side: Side) -> Samples:
+    points, resolution = _samples(side)
     part = model.parts[side.part]
     if part.environment:  # environments are one rigid body: compare in world coordinates
         frame = frame_matrix(part.position, part.rotation)
         points = points @ frame[:3, :3].T + frame[:3, 3]
-    return points
+    return points, resolution
 
 
-def _distance_range(first: Array, second: Array, same: bool) -> tuple[float, float]:
-    distances = np.linalg.norm(first[:, None, :] - second[None, :, :], axis=-1)
-    return (0.0 if same else float(distances.min())), float(distances.max())
+def _distance_range(
+    first: tuple[Array, float], second: tuple[Array, float], same: bool
+) -> tuple[float, float]:
+    """The range of distances between the two connectors, widened by both grids' resolution."""
+    (a, a_resolution), (b, b_resolution) = first, second
+    distances = np.linalg.norm(a[:, None, :] - b[None, :, :], axis=-1)
+    margin = a_resolution + b_resolution
+    return (0.0 if same else max(float(distances.min()) - margin, 0.0)), float(distances.max()) + margin
 
 
 def loop_links(model: Model, loop: Loop) -> list[Link]:
