@@ -41,7 +41,7 @@ def check(path: Path, bindings: Mapping[str, str] | None = None, seed: int = 0) 
 
     Raises `load.InputError` when the file itself cannot be read.
     """
-    return _checked(load_program(path), bindings, seed)
+    return _checked(load_program(path), bindings, seed, float("inf"))
 
 
 def part_library() -> CheckResult:
@@ -56,7 +56,7 @@ def part_library() -> CheckResult:
 class SolveResult:
     """What `fabhal solve` reports: a status, the check, and the solution if there is one."""
 
-    status: str  # solved, falls_apart, infeasible, error
+    status: str  # solved, falls_apart, infeasible, out_of_time, error
     check: CheckResult
     solution: object | None  # fabhal.solve.Solution (imported lazily: `fabhal check` starts faster)
     seed: int
@@ -76,14 +76,18 @@ def solve(
     gravity: bool = True,
     progress: Callable[[str], None] | None = None,
 ) -> SolveResult:
-    """Check, then (if the design can be built) solve. Raises load.InputError for an unreadable file."""
+    """Check, then (if the design can be built) solve. Raises load.InputError for an unreadable file.
+
+    `time_limit` (seconds) counts from here and bounds every stage: reading,
+    checking (the loops' closure solve) and solving."""
     from fabhal.solve import SolveOptions
     from fabhal.solve import solve as run_solver
 
     started = time.perf_counter()
+    deadline = time.monotonic() + time_limit if time_limit is not None else float("inf")
     program = load_program(path)
     parsed = time.perf_counter()
-    result = _checked(program, bindings, seed)
+    result = _checked(program, bindings, seed, deadline)
     checked = time.perf_counter()
     timing = {"parse_s": parsed - started, "check_s": checked - parsed, "solve_s": 0.0}
     codes = {d.code for d in result.diagnostics if d.is_error}
@@ -92,19 +96,27 @@ def solve(
     if not result.ok or result.model is None:
         return SolveResult("error", result, None, seed, timing)
     loops = result.report.loops if result.report is not None else None
-    options = SolveOptions(seed=seed, time_limit=time_limit, gravity=gravity, progress=progress)
+    if loops is not None and not loops.closed:  # the time limit ended the check first
+        return SolveResult("out_of_time", result, None, seed, timing)
+    options = SolveOptions(
+        seed=seed, time_limit=time_limit, deadline=deadline, gravity=gravity, progress=progress
+    )
     solution = run_solver(result.model, options, loops.x if loops is not None else None)
     timing["solve_s"] = time.perf_counter() - checked
     return SolveResult(solution.status, result, solution, seed, timing)
 
 
-def _checked(program: LoadedProgram, bindings: Mapping[str, str] | None, seed: int) -> CheckResult:
+def _checked(
+    program: LoadedProgram, bindings: Mapping[str, str] | None, seed: int, deadline: float
+) -> CheckResult:
     library, problems = build_library(program)
     flat, elaboration_problems = elaborate(program, library, bindings)
     found = [*program.diagnostics, *problems, *elaboration_problems]
     model = report = None
     if flat is not None and not has_errors([*program.diagnostics, *problems]):
         model = build_model(flat)
-        report = check_program(CheckContext(flat, model, library, seed), complete=not has_errors(found))
+        report = check_program(
+            CheckContext(flat, model, library, seed, deadline), complete=not has_errors(found)
+        )
         found.extend(report.diagnostics)
     return CheckResult(program, library, flat, model, report, tuple(sort_diagnostics(merge_repeats(found))))

@@ -87,8 +87,12 @@ surface hold; a part slides along a rod only where gravity beats friction).
 If a connection would slide off an open end from every start tried, the
 status is `falls_apart` and the message names the connection.
 
-exit status: 0 solved, 1 falls apart / infeasible / errors in the program,
-2 a file could not be read (or an internal error).
+--time-limit bounds the whole command (checking included): at the limit the
+best result so far is reported, with warning W502; if the loops of the design
+are not even closed by then, the status is `out_of_time`.
+
+exit status: 0 solved, 1 falls apart / infeasible / out of time / errors in
+the program, 2 a file could not be read (or an internal error).
 """
 
 
@@ -473,7 +477,11 @@ def run_render(args: argparse.Namespace) -> int:
     return _finish(result, args.output, args, report.to_dict(result, display_name(args.file.resolve())))
 
 
-_NOT_SOLVED = {"error": "the program has errors", "infeasible": "a loop of the design cannot close"}
+_NOT_SOLVED = {
+    "error": "the program has errors",
+    "infeasible": "a loop of the design cannot close",
+    "out_of_time": "the time limit ended before the loops were closed",
+}
 
 
 def _unknown_format(output: Path | None) -> bool:

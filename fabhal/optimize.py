@@ -199,11 +199,11 @@ def minimize(
     state.max_step = max_step
     if hessian is None:
         if measure_curvature:
-            state.measure = lambda at, g, a_at: _lagrangian_hessian(problem, at, g, a_at)
+            state.measure = lambda at, g, a_at: _lagrangian_hessian(problem, at, g, a_at, deadline=deadline)
         if curvature is not None:
             state.start_from(curvature)
         elif state.measure is not None:
-            state.start_from(state.measure(u, gradient, a))
+            state.start_from(state.measure(u, gradient, a))  # None past the deadline: BFGS from 1
     stationarity, iterations = np.inf, 0
     history = [value]
     stationary = max(gtol, STATIONARY * (1.0 if state.bfgs else max(1.0, float(np.sqrt(2.0 * value)))))
@@ -288,7 +288,7 @@ class _Iteration:
         self.gauss_newton = np.zeros((n, n))  # J^T J at the last point (least squares)
         self.corrected = False  # least squares: whether the model includes S (NL2SOL's choice)
         # measures the Hessian of the Lagrangian at (u, gradient, dc/du), if BFGS should start from it
-        self.measure: Callable[[Array, Array, Array], Array] | None = None
+        self.measure: Callable[[Array, Array, Array], Array | None] | None = None
 
     def step(
         self, u: Array, gradient: Array, hessian: Array | None, a: Array, c: Array
@@ -339,9 +339,12 @@ class _Iteration:
             self.multipliers = lam[: len(c)]
             return step, projected
 
-    def start_from(self, hessian: Array) -> None:
+    def start_from(self, hessian: Array | None) -> None:
         """BFGS from a measured Hessian, made positive definite (eigenvalues
-        mirrored and floored: a saddle's downhill direction keeps its scale)."""
+        mirrored and floored: a saddle's downhill direction keeps its scale);
+        None (not measured: out of time) leaves the model to its first steps."""
+        if hessian is None:
+            return
         values, vectors = np.linalg.eigh(0.5 * (hessian + hessian.T))
         floor = 1e-6 * max(float(np.abs(values).max(initial=0.0)), 1e-12)
         self.model = (vectors * np.maximum(np.abs(values), floor)) @ vectors.T
@@ -487,12 +490,15 @@ def tangent_curvature(
     equality: Equality | None = None,
     linear: Linear | None = None,
     scale: Array | None = None,
+    deadline: float = np.inf,
 ) -> tuple[Array, Array]:
     """The curvature of f at x along the constraints active there (c = 0, the
     bounds x is on, the spacing at 0): eigenvalues of the Lagrangian's Hessian
     on their tangent space, ascending, in objective units per scaled unit
     squared, and the matching directions in x (columns). A negative one makes
-    x an unstable balance, and its direction is the way down."""
+    x an unstable balance, and its direction is the way down. Past `deadline`
+    (the measurement takes a gradient per variable) nothing is measured: no
+    values, no directions."""
     problem = _Scaled.of(objective, low, high, equality, linear, scale)
     u = np.asarray(x, dtype=float) * problem.scale
     _, gradient, _ = problem.evaluate(u)
@@ -502,7 +508,9 @@ def tangent_curvature(
     rows = np.vstack([rows, np.eye(len(u))[_held_by_bounds(problem, u, gradient, rows)]])
     # a step long against rounding (the Hessian is read for its sign), short against the
     # friction's half-millimetre smoothing
-    hessian = _lagrangian_hessian(problem, u, gradient, a, step=1e-2, rows=rows)
+    hessian = _lagrangian_hessian(problem, u, gradient, a, step=1e-2, rows=rows, deadline=deadline)
+    if hessian is None:
+        return np.zeros(0), np.zeros((len(u), 0))
     null = np.eye(len(u))
     if len(rows):
         _, singular, right_t = np.linalg.svd(rows, full_matrices=True)
@@ -525,17 +533,26 @@ def _held_by_bounds(problem: _Scaled, u: Array, gradient: Array, rows: Array) ->
 
 
 def _lagrangian_hessian(
-    problem: _Scaled, u: Array, gradient: Array, a: Array, step: float = 1e-4, rows: Array | None = None
-) -> Array:
+    problem: _Scaled,
+    u: Array,
+    gradient: Array,
+    a: Array,
+    step: float = 1e-4,
+    rows: Array | None = None,
+    deadline: float = np.inf,
+) -> Array | None:
     """Forward differences of the Lagrangian's gradient, stepping inwards at upper
     bounds. The loops' multipliers come from `rows` (the active constraints, the
     loops first) when given, else from the loops alone. The default step is in
-    scaled units (mm): the friction smoothing is 0.5 mm, the swings far longer."""
+    scaled units (mm): the friction smoothing is 0.5 mm, the swings far longer.
+    One gradient per variable: None when the deadline passes on the way."""
     active = a if rows is None else rows
     multipliers = np.linalg.lstsq(active.T, gradient, rcond=None)[0][: len(a)] if len(active) else np.zeros(0)
     base = gradient - a.T @ multipliers
     columns = []
     for i in range(len(u)):
+        if time.monotonic() > deadline:
+            return None
         h = -step if u[i] + step > problem.high[i] else step
         moved = u.copy()
         moved[i] += h

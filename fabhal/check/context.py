@@ -17,6 +17,7 @@ class CheckContext:
     model: Model
     library: Library
     seed: int = 0
+    deadline: float = float("inf")  # time.monotonic() when a --time-limit ends
 
     def part(self, name: str) -> PartInstance:
         return self.program.part(name)

@@ -13,12 +13,13 @@ one rigid link.
 from __future__ import annotations
 
 import itertools
+import time
 from dataclasses import dataclass
 
 import numpy as np
 
 from fabhal.check.context import CheckContext
-from fabhal.diagnostics import Diagnostic, error
+from fabhal.diagnostics import Diagnostic, error, warning
 from fabhal.kinematics.frames import Array, frame_matrix
 from fabhal.model import Model, Side
 from fabhal.optimize import least_squares_objective, minimize
@@ -54,6 +55,7 @@ class LoopReport:
     closed: bool
     worst_position_mm: float
     worst_angle_deg: float
+    starts_tried: int  # fewer than MAX_STARTS when the time limit ended the search
 
 
 def find_loops(model: Model) -> list[Loop]:
@@ -216,13 +218,14 @@ def close_loops(
     starts: int = MAX_STARTS,
     x0: Array | None = None,
     evaluations: int = CLOSE_EVALUATIONS,
+    deadline: float = np.inf,
 ) -> LoopReport:
     """Find DoFs that close every loop: least squares from `x0` (the defaults),
     then from seeded random starts, each for at most `evaluations`; stops at
-    the first start that closes them all."""
+    the first start that closes them all, or at `deadline` (time.monotonic())."""
     x0 = model.x_default() if x0 is None else x0
     if not model.closures:
-        return LoopReport(x0, True, 0.0, 0.0)
+        return LoopReport(x0, True, 0.0, 0.0, 0)
     free = np.array(
         sorted({i for loop in find_loops(model) for j in loop.joints for i in _dof_indices(model, j)})
     )
@@ -238,8 +241,11 @@ def close_loops(
         x = full(values)
         return model.closure_residuals(x), model.closure_jacobian(x)[:, free]
 
-    best_x, best_cost = x0, np.inf
+    best_x, best_cost, tried = x0, np.inf, 0
     for attempt in range(starts):
+        if attempt and time.monotonic() > deadline:
+            break
+        tried += 1
         start = x0[free] if attempt == 0 else _random_start(rng, low[free], high[free])
         fit = minimize(
             least_squares_objective(residual_and_jacobian),
@@ -248,6 +254,7 @@ def close_loops(
             high[free],
             max_evaluations=evaluations,
             stop_below=0.5 * (0.01 * CLOSED_MM) ** 2,
+            deadline=deadline,
         )
         cost = float(np.abs(residual_and_jacobian(fit.x)[0]).max())
         if cost < best_cost:
@@ -256,7 +263,7 @@ def close_loops(
             best_x[free] = fit.x
         if cost < CLOSED_MM:
             break
-    return _report(model, best_x, best_cost < CLOSED_MM)
+    return _report(model, best_x, best_cost < CLOSED_MM, tried)
 
 
 def _dof_indices(model: Model, joint: int) -> tuple[int, ...]:
@@ -270,11 +277,11 @@ def _random_start(rng: np.random.Generator, low: Array, high: Array) -> Array:
     return rng.uniform(lo, hi)
 
 
-def _report(model: Model, x: Array, closed: bool) -> LoopReport:
+def _report(model: Model, x: Array, closed: bool, tried: int) -> LoopReport:
     errors = model.closure_errors(x)
     position = float(np.linalg.norm(errors[:, :3, 3], axis=1).max())
     cosines = np.clip((np.trace(errors[:, :3, :3], axis1=1, axis2=2) - 1.0) / 2.0, -1.0, 1.0)
-    return LoopReport(x, closed, position, float(np.degrees(np.arccos(cosines)).max()))
+    return LoopReport(x, closed, position, float(np.degrees(np.arccos(cosines)).max()), tried)
 
 
 # ---------------------------------------------------------------- the rule
@@ -290,10 +297,21 @@ def check(ctx: CheckContext) -> tuple[list[Diagnostic], LoopReport | None]:
             problems.append(_too_long(ctx, loop, links))
     if problems or not loops:
         return problems, None
-    report = close_loops(model, ctx.seed)
+    report = close_loops(model, ctx.seed, deadline=ctx.deadline)
     if not report.closed:
         loop = loops[0]
         joint = model.joints[loop.closing_joint]
+        if time.monotonic() > ctx.deadline:  # not shown to be impossible: out of time
+            problems.append(
+                warning(
+                    "W502",
+                    f"stopped at the time limit before this loop was closed ({report.starts_tried} of "
+                    f"{MAX_STARTS} starts tried): {_loop_text(ctx, loop)}",
+                    joint.connection.span,
+                    "allow more time with --time-limit",
+                )
+            )
+            return problems, report
         problems.append(
             error(
                 "E421",

@@ -112,12 +112,14 @@ _STATUS_STYLE = {
     "solved": "bold green",
     "falls_apart": "bold red",
     "infeasible": "bold red",
+    "out_of_time": "bold red",
     "error": "bold red",
 }
 _STATUS_TEXT = {
     "solved": "solved",
     "falls_apart": "falls apart",
     "infeasible": "infeasible: a loop cannot close",
+    "out_of_time": "not solved: the time limit ended before the loops were closed",
     "error": "not solved: the program has errors",
 }
 

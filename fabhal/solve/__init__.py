@@ -61,7 +61,8 @@ SETTLE_TOLERANCE = 0.1 * EQUILIBRIUM_TOLERANCE
 @dataclass(frozen=True)
 class SolveOptions:
     seed: int = 0
-    time_limit: float | None = None  # seconds
+    time_limit: float | None = None  # seconds, from the start of the command (for messages)
+    deadline: float = float("inf")  # time.monotonic() when the time limit ends, for every stage
     gravity: bool = True
     progress: Callable[[str], None] | None = None  # told what the solver is doing, for a status line
 
@@ -106,16 +107,16 @@ def solve(model: Model, options: SolveOptions, loop_start: Array | None = None) 
     its tip): up to FALL_RETRIES more attempts from the next seeds' starts, and
     the first that holds is the answer, with a note saying so. The design falls
     apart only when every attempt does."""
-    started = time.monotonic()
+    if options.time_limit is not None and not np.isfinite(options.deadline):
+        options = replace(options, deadline=time.monotonic() + options.time_limit)
     first = _solve_once(model, options, loop_start)
     if not first.falls or not options.gravity:
         return first
     for k in range(1, FALL_RETRIES + 1):
-        remaining = None if options.time_limit is None else options.time_limit - (time.monotonic() - started)
-        if remaining is not None and remaining <= 0:
+        if time.monotonic() > options.deadline:
             break
         options.report(f"it fell apart; trying again from seed {options.seed + k}")
-        retry = _solve_once(model, replace(options, seed=options.seed + k, time_limit=remaining), None)
+        retry = _solve_once(model, replace(options, seed=options.seed + k), None)
         if not retry.falls:
             fall = first.falls[0]
             held = Diagnostic(
@@ -131,8 +132,7 @@ def solve(model: Model, options: SolveOptions, loop_start: Array | None = None) 
 
 
 def _solve_once(model: Model, options: SolveOptions, loop_start: Array | None) -> Solution:
-    started = time.monotonic()
-    deadline = started + options.time_limit if options.time_limit else float("inf")
+    deadline = options.deadline
     goal = target_mod.goal_of(model)
     masses, centres = _mass_table(model)
     notes: list[Diagnostic] = []
@@ -144,7 +144,9 @@ def _solve_once(model: Model, options: SolveOptions, loop_start: Array | None) -
     x = step1.full(v)
     if late:
         notes.append(_late(options))
-    elif reach.out_of_reach(target_mod.errors(goal, target_mod.achieved(goal, model.part_frames(x)))):
+    elif not step1.out_of_time() and reach.out_of_reach(
+        target_mod.errors(goal, target_mod.achieved(goal, model.part_frames(x)))
+    ):
         options.report("step 1: the target is out of reach; finding what limits it")
         notes.append(reach.diagnose(step1, goal, x))
 
@@ -161,7 +163,8 @@ def _solve_once(model: Model, options: SolveOptions, loop_start: Array | None) -
         options.report("step 2: settling under gravity")
         if len(movable):
             x, curvature = _settle_stably(step2, energy, x, at_rest, weight)
-            x = _turn_towards_target(step2, energy, goal, x, at_rest, TARGET_PULL * weight, curvature)
+            if not step2.out_of_time():
+                x = _turn_towards_target(step2, energy, goal, x, at_rest, TARGET_PULL * weight, curvature)
         equilibrium, at_bound, falls = _verify(step2, energy, x, masses)
         for _ in range(POLISH_ROUNDS):  # a long loop's flat valley may need more iterations
             if equilibrium <= EQUILIBRIUM_TOLERANCE or not len(movable) or step2.out_of_time():
@@ -209,14 +212,16 @@ def step_one(
     x0 = model.x_default()
     spacing = spacing_constraints(model, spread(spacing_constraints(model, x0), x0))
     x0 = spread(spacing, x0)
-    starts = [_first_start(model, x0, spacing, loop_start, seed) if model.closures else x0]
+    starts = [_first_start(model, x0, spacing, loop_start, seed, deadline) if model.closures else x0]
     low, high = model.bounds()
     # with loops every start is closed first and fitted under constraints: fewer, dearer starts
     for _ in range(EXTRA_STARTS if not model.closures else 1):
         random = rng.uniform(np.where(np.isfinite(low), low, 0.0), np.where(np.isfinite(high), high, 360.0))
         random[list(model.pinned)] = x0[list(model.pinned)]
         if model.closures:
-            closing = close_loops(model, seed, starts=1, x0=random, evaluations=RANDOM_CLOSE_EVALUATIONS)
+            closing = close_loops(
+                model, seed, starts=1, x0=random, evaluations=RANDOM_CLOSE_EVALUATIONS, deadline=deadline
+            )
             if not closing.closed:
                 continue  # fitting from an open start would close its loops all over again
             random = closing.x
@@ -226,7 +231,7 @@ def step_one(
 
 
 def _first_start(
-    model: Model, x0: Array, spacing: list[Spacing], loop_start: Array | None, seed: int
+    model: Model, x0: Array, spacing: list[Spacing], loop_start: Array | None, seed: int, deadline: float
 ) -> Array:
     """Step 1's first start with loops: the check's closed loops when they keep
     the spacing; else those loops with the shared primitives' parts spread out
@@ -238,10 +243,14 @@ def _first_start(
         spaced = sorted({i for c in spacing for i in (c.first, c.second)})
         shifted = loop_start.copy()
         shifted[spaced] = x0[spaced]
-        closing = close_loops(model, seed, starts=1, x0=shifted, evaluations=RANDOM_CLOSE_EVALUATIONS)
+        closing = close_loops(
+            model, seed, starts=1, x0=shifted, evaluations=RANDOM_CLOSE_EVALUATIONS, deadline=deadline
+        )
         if closing.closed and float(spacing_values(spacing, closing.x).min()) > -1e-6:
             return closing.x
-    return close_loops(model, seed, x0=x0).x
+        if time.monotonic() > deadline:
+            return loop_start  # closed, if not yet spaced: the best start there is time for
+    return close_loops(model, seed, x0=x0, deadline=deadline).x
 
 
 def _distinct(starts: list[Array]) -> list[Array]:
@@ -270,6 +279,8 @@ def _settle_stably(
     first = settle(problem, energy, x[free], at_rest)
     best = problem.full(first.x)
     best_energy = energy(best)[0]
+    if problem.out_of_time():
+        return best, first.curvature
     values, directions = problem.curvature(energy, first.x)
     if not len(values) or values[0] >= -UNSTABLE_CURVATURE * weight or problem.out_of_time():
         return best, first.curvature

@@ -159,7 +159,9 @@ class Problem:
         """The energy's curvature at v along the active constraints: eigenvalues
         (joules per mm of motion squared, ascending) and directions in v."""
         low, high, setting = self._optimiser_setting()
-        return tangent_curvature(_free_objective(self, energy), v, low, high, **setting)
+        return tangent_curvature(
+            _free_objective(self, energy), v, low, high, **setting, deadline=self.deadline
+        )
 
     def out_of_time(self) -> bool:
         return time.monotonic() > self.deadline
