@@ -217,13 +217,17 @@ def _header(draw: ImageDraw.ImageDraw, scene: Scene, summary: dict[str, Any], wi
         ("target", (245, 140, 31)),
         ("requested target axes: x y z", None),
     )
-    x = width - 420
-    for text, color in legend:
+    font = _font(14)
+    widths = [int(draw.textlength(text, font=font)) + (18 if color else 0) + 18 for text, color in legend]
+    # on the title's row, right-aligned; left out where it would run into the title
+    x = width - sum(widths)
+    if x < 16 + int(draw.textlength(scene.title, font=_font(20))) + 24:
+        return
+    for (text, color), taken in zip(legend, widths, strict=True):
         if color is not None:
-            draw.rectangle([x, 42, x + 12, 54], fill=color)
-            x += 18
-        draw.text((x, 40), text, fill=(70, 70, 70), font=_font(14))
-        x += int(draw.textlength(text, font=_font(14))) + 18
+            draw.rectangle([x, 16, x + 12, 28], fill=color)
+        draw.text((x + (18 if color else 0), 14), text, fill=(70, 70, 70), font=font)
+        x += taken
 
 
 @cache
