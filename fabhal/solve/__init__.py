@@ -56,6 +56,10 @@ BOUND_TOLERANCE = 1e-6  # a DoF within this fraction of its range from an end re
 EQUILIBRIUM_TOLERANCE = 1e-3
 # settling stops at a tenth of that: the verification then has room for rounding
 SETTLE_TOLERANCE = 0.1 * EQUILIBRIUM_TOLERANCE
+# two settled results from different starts are the same when their targets are
+# this close: a builder's precision (see fabhal/solve/reach.py)
+DISAGREE_MM = 5.0
+DISAGREE_DEG = 5.0
 
 
 @dataclass(frozen=True)
@@ -132,17 +136,15 @@ def solve(model: Model, options: SolveOptions, loop_start: Array | None = None) 
 
 
 def _solve_once(model: Model, options: SolveOptions, loop_start: Array | None) -> Solution:
-    deadline = options.deadline
     goal = target_mod.goal_of(model)
     masses, centres = _mass_table(model)
     notes: list[Diagnostic] = []
 
-    step1, starts = step_one(model, options.seed, loop_start, deadline)
-    spacing, free = step1.spacing, step1.free
+    step1, starts = step_one(model, options.seed, loop_start, options.deadline)
     options.report("step 1: bringing the target to its frame")
-    v, late = fit_target(step1, goal, starts)
-    x = step1.full(v)
-    if late:
+    fit = fit_target(step1, goal, starts)
+    x = step1.full(fit.v)
+    if fit.late:
         notes.append(_late(options))
     elif not step1.out_of_time() and reach.out_of_reach(
         target_mod.errors(goal, target_mod.achieved(goal, model.part_frames(x)))
@@ -150,56 +152,132 @@ def _solve_once(model: Model, options: SolveOptions, loop_start: Array | None) -
         options.report("step 1: the target is out of reach; finding what limits it")
         notes.append(reach.diagnose(step1, goal, x))
 
-    equilibrium = None
-    at_bound: tuple[int, ...] = ()
-    falls: tuple[Fall, ...] = ()
+    settled = Settled(x, None, (), ())
     if options.gravity:
-        held = {i for j in model.joints if j.held for i in j.a.dof_indices + j.b.dof_indices}
-        movable = np.array([i for i in free if i not in held], dtype=int)
-        step2 = Problem(model, movable, x.copy(), spacing, deadline)
-        energy = with_friction(model, potential(model, masses, centres), masses, x)
-        weight = _weight(masses)
-        at_rest = SETTLE_TOLERANCE * weight
         options.report("step 2: settling under gravity")
-        if len(movable):
-            x, curvature = _settle_stably(step2, energy, x, at_rest, weight)
-            if not step2.out_of_time():
-                x = _turn_towards_target(step2, energy, goal, x, at_rest, TARGET_PULL * weight, curvature)
-        equilibrium, at_bound, falls = _verify(step2, energy, x, masses)
-        for _ in range(POLISH_ROUNDS):  # a long loop's flat valley may need more iterations
-            if equilibrium <= EQUILIBRIUM_TOLERANCE or not len(movable) or step2.out_of_time():
-                break
-            x = step2.full(settle(step2, energy, x[movable], at_rest).x)
-            equilibrium, at_bound, falls = _verify(step2, energy, x, masses)
-        if equilibrium > EQUILIBRIUM_TOLERANCE:
+        settled = _settle(step1, x, masses, centres, goal)
+        if fit.runner_up is not None and not step1.out_of_time():
+            options.report("step 2: settling from another start")
+            other = _settle(step1, step1.full(fit.runner_up), masses, centres, goal)
+            settled, disagreement = _pick(
+                model, goal, settled, other, lambda s: _energy(model.part_frames(s.x), masses, centres)
+            )
+            if disagreement is not None:
+                notes.append(disagreement)
+        if settled.equilibrium is not None and settled.equilibrium > EQUILIBRIUM_TOLERANCE:
             notes.append(
                 warning(
                     "W503",
-                    f"the settled assembly is not quite at rest (equilibrium residual {equilibrium:.1e})",
+                    "the settled assembly is not quite at rest "
+                    f"(equilibrium residual {settled.equilibrium:.1e})",
                     model.program.targets[0].span,
                     "the result may move a little further; try another --seed",
                 )
             )
-        if step2.out_of_time() and not late:
+        if step1.out_of_time() and not fit.late:
             notes.append(_late(options))
+    x = settled.x
     frames = model.part_frames(x)
-    weights = masses / 1000.0 * 9.81 / 1000.0
-    heights = np.einsum("pj,pj->p", frames[:, 2, :3], centres) + frames[:, 2, 3]
-    diagnostics = [*notes, *(_fall_diagnostic(model, f) for f in falls)]
+    diagnostics = [*notes, *(_fall_diagnostic(model, f) for f in settled.falls)]
     return Solution(
-        "falls_apart" if falls else "solved",
+        "falls_apart" if settled.falls else "solved",
         model,
         x,
         frames,
         masses,
         goal,
-        float(weights @ heights),
+        _energy(frames, masses, centres),
         closure_residual_mm(model, x),
-        equilibrium,
-        at_bound,
-        falls,
+        settled.equilibrium,
+        settled.at_bound,
+        settled.falls,
         tuple(diagnostics),
     )
+
+
+@dataclass(frozen=True)
+class Settled:
+    """Step 2's result: where the assembly comes to rest, and how well it is at rest."""
+
+    x: Array
+    equilibrium: float | None  # KKT residual, relative to the weight; None without gravity
+    at_bound: tuple[int, ...]
+    falls: tuple[Fall, ...]
+
+
+def _settle(step1: Problem, x: Array, masses: Array, centres: Array, goal: target_mod.TargetGoal) -> Settled:
+    """Step 2 from step 1's `x`: held DoFs stay, the rest settle under gravity (with
+    friction from where they start), stably, turned towards the request among
+    equally low configurations, then verified at rest."""
+    model = step1.model
+    held = {i for j in model.joints if j.held for i in j.a.dof_indices + j.b.dof_indices}
+    movable = np.array([i for i in step1.free if i not in held], dtype=int)
+    step2 = Problem(model, movable, x.copy(), step1.spacing, step1.deadline)
+    energy = with_friction(model, potential(model, masses, centres), masses, x)
+    weight = _weight(masses)
+    at_rest = SETTLE_TOLERANCE * weight
+    if len(movable):
+        x, curvature = _settle_stably(step2, energy, x, at_rest, weight)
+        if not step2.out_of_time():
+            x = _turn_towards_target(step2, energy, goal, x, at_rest, TARGET_PULL * weight, curvature)
+    equilibrium, at_bound, falls = _verify(step2, energy, x, masses)
+    for _ in range(POLISH_ROUNDS):  # a long loop's flat valley may need more iterations
+        if equilibrium <= EQUILIBRIUM_TOLERANCE or not len(movable) or step2.out_of_time():
+            break
+        x = step2.full(settle(step2, energy, x[movable], at_rest).x)
+        equilibrium, at_bound, falls = _verify(step2, energy, x, masses)
+    return Settled(x, equilibrium, at_bound, falls)
+
+
+def _pick(
+    model: Model,
+    goal: target_mod.TargetGoal,
+    first: Settled,
+    second: Settled,
+    energy: Callable[[Settled], float],
+) -> tuple[Settled, Diagnostic | None]:
+    """Of two settled results from different starts, the rule: one that holds
+    (does not fall apart, is at rest) over one that does not; then the one whose
+    target hangs nearest the request (mm, and degrees counted as mm, as step 1
+    measures); then the lower energy. N505 when they hang apart."""
+
+    def rank(result: Settled) -> tuple[bool, bool, float, float]:
+        position, rotation = target_mod.errors(goal, target_mod.achieved(goal, model.part_frames(result.x)))
+        resting = result.equilibrium is not None and result.equilibrium <= EQUILIBRIUM_TOLERANCE
+        return bool(result.falls), not resting, round(position + rotation, 1), energy(result)
+
+    chosen, other = (first, second) if rank(first) <= rank(second) else (second, first)
+    a = target_mod.achieved(goal, model.part_frames(chosen.x))
+    b = target_mod.achieved(goal, model.part_frames(other.x))
+    apart, turned = target_mod.errors(replace(goal, requested=b), a)
+    if (apart <= DISAGREE_MM and turned <= DISAGREE_DEG) or chosen.falls:  # both fall: E501 says it
+        return chosen, None
+    near, near_deg = target_mod.errors(goal, a)
+    far, far_deg = target_mod.errors(goal, b)
+    if other.falls:
+        why = "the other falls apart"
+    elif rank(other)[1] and not rank(chosen)[1]:
+        why = "the other is not at rest"
+    else:
+        why = (
+            f"it hangs nearer the request ({near:.0f} mm, {near_deg:.0f} degrees off; "
+            f"the other {far:.0f} mm, {far_deg:.0f} degrees)"
+        )
+    return chosen, Diagnostic(
+        Severity.NOTE,
+        "N505",
+        f"starts disagree: from two starts the hack settles {apart:.0f} mm and {turned:.0f} degrees apart; "
+        f"reported is one of them because {why}",
+        model.program.targets[0].span,
+        "how the parts are first hung decides where a builder's hack comes to rest: hang them as the "
+        "result shows (docs/errors.md, N505, gives the rule)",
+    )
+
+
+def _energy(frames: Array, masses: Array, centres: Array) -> float:
+    weights = masses / 1000.0 * 9.81 / 1000.0
+    heights = np.einsum("pj,pj->p", frames[:, 2, :3], centres) + frames[:, 2, 3]
+    return float(weights @ heights)
 
 
 def step_one(

@@ -170,8 +170,17 @@ class Problem:
 # ---------------------------------------------------------------- step 1
 
 
-def fit_target(problem: Problem, goal: target_mod.TargetGoal, starts: list[Array]) -> tuple[Array, bool]:
-    """Best free DoFs over the starts; (v, stopped early for the time limit).
+@dataclass(frozen=True)
+class Fit:
+    v: Array  # the best free DoFs found
+    late: bool  # stopped early for the time limit
+    # the most promising other start's probe when no start fitted (GOOD_FIT): where
+    # starts end in different valleys, the hack may also hang from there
+    runner_up: Array | None = None
+
+
+def fit_target(problem: Problem, goal: target_mod.TargetGoal, starts: list[Array]) -> Fit:
+    """Best free DoFs over the starts.
 
     Every start is fitted for FIT_PROBE_EVALUATIONS first and only the most
     promising one to FIT_EVALUATIONS: a chain that cannot reach its target
@@ -202,12 +211,14 @@ def fit_target(problem: Problem, goal: target_mod.TargetGoal, starts: list[Array
         if cost < GOOD_FIT**2:
             break  # the other starts are there for when this one is stuck far away
     if not probes:
-        return starts[0], True
-    cost, best = min(probes, key=lambda probe: probe[0])
+        return Fit(starts[0], True)
+    probes.sort(key=lambda probe: probe[0])
+    (cost, best), others = probes[0], [v for c, v in probes[1:] if np.isfinite(c)]
     if problem.out_of_time():
-        return best, True
+        return Fit(best, True)
     v, final = fit(best, FIT_EVALUATIONS)
-    return (v if final <= cost else best), False
+    fitted = cost < GOOD_FIT**2 or not others
+    return Fit(v if final <= cost else best, False, None if fitted else others[0])
 
 
 def _fit_stalled(costs: list[float]) -> bool:

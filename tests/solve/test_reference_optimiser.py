@@ -48,7 +48,7 @@ def test_step_one_agrees_with_scipy(program: Path) -> None:
         fwd = model.forward(problem.full(v), with_twists=True)
         return target_mod.residual_jacobian(goal, model, fwd)[:, free]
 
-    ours, _ = fit_target(problem, goal, starts)
+    ours = fit_target(problem, goal, starts).v
     ours_cost = 0.5 * float(residual(ours) @ residual(ours))
     low, high = problem.bounds()
     references = [
