@@ -28,6 +28,10 @@ ENVIRONMENT = -1  # all environment parts act as one rigid link
 MAX_STARTS = 16
 CLOSED_MM = 1e-6  # a loop counts as closed when every residual is below this (mm, or mm-equivalent)
 CLOSE_EVALUATIONS = 200  # per start of the closure solve
+# when no start closes the loops, the best is continued this many times longer
+# before the loop is called impossible: a large model (a hoop on 12 chains, 117
+# DoFs) needed more than 200 evaluations from a start that does close it
+POLISH_FACTOR = 10
 _SLACK_MM = 1e-3  # tolerance on link ranges, as the reference
 Samples = tuple[Array, float]  # connector positions and their grid's resolution (mm)
 
@@ -241,29 +245,33 @@ def close_loops(
         x = full(values)
         return model.closure_residuals(x), model.closure_jacobian(x)[:, free]
 
-    best_x, best_cost, tried = x0, np.inf, 0
-    for attempt in range(starts):
-        if attempt and time.monotonic() > deadline:
-            break
-        tried += 1
-        start = x0[free] if attempt == 0 else _random_start(rng, low[free], high[free])
+    def attempt(start: Array, budget: int) -> tuple[Array, float]:
         fit = minimize(
             least_squares_objective(residual_and_jacobian),
             start,
             low[free],
             high[free],
-            max_evaluations=evaluations,
+            max_evaluations=budget,
             stop_below=0.5 * (0.01 * CLOSED_MM) ** 2,
             deadline=deadline,
         )
-        cost = float(np.abs(residual_and_jacobian(fit.x)[0]).max())
+        return fit.x, float(np.abs(residual_and_jacobian(fit.x)[0]).max())
+
+    best, best_cost, tried = x0[free], np.inf, 0
+    for k in range(starts):
+        if k and time.monotonic() > deadline:
+            break
+        tried += 1
+        values, cost = attempt(x0[free] if k == 0 else _random_start(rng, low[free], high[free]), evaluations)
         if cost < best_cost:
-            best_cost = cost
-            best_x = x0.copy()
-            best_x[free] = fit.x
+            best, best_cost = values, cost
         if cost < CLOSED_MM:
             break
-    return _report(model, best_x, best_cost < CLOSED_MM, tried)
+    if best_cost >= CLOSED_MM and starts > 1 and time.monotonic() <= deadline:
+        best, best_cost = min(
+            [(best, best_cost), attempt(best, POLISH_FACTOR * evaluations)], key=lambda t: t[1]
+        )
+    return _report(model, full(best), best_cost < CLOSED_MM, tried)
 
 
 def _dof_indices(model: Model, joint: int) -> tuple[int, ...]:
@@ -317,7 +325,8 @@ def check(ctx: CheckContext) -> tuple[list[Diagnostic], LoopReport | None]:
                 "E421",
                 f"this connection closes a loop that cannot close: {_loop_text(ctx, loop)}",
                 joint.connection.span,
-                f"the best of {MAX_STARTS} tries leaves a gap of {report.worst_position_mm:.1f} mm and "
+                f"the best of {MAX_STARTS} tries, continued {POLISH_FACTOR} times longer, leaves a gap of "
+                f"{report.worst_position_mm:.1f} mm and "
                 f"{report.worst_angle_deg:.1f} degrees; try `flip` on a connection of the loop, "
                 "or parts of other lengths",
             )
