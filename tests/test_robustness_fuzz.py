@@ -26,6 +26,8 @@ from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
 
 from fabhal import api, cli
+from fabhal.primitives import CONNECTABLE
+from fabhal.syntax import ast
 from tests.conftest import REPO
 
 QUICK_EXAMPLES = 20  # per strategy, in every test run
@@ -37,25 +39,36 @@ GALLERY = sorted((REPO / "programs").glob("*.fhl"))
 
 
 @cache
-def library() -> dict[str, list[str]]:
-    """Every library part and its primitives' names."""
+def library() -> dict[str, list[tuple[str, str]]]:
+    """Every library part without parameters: its primitives' (name, kind)."""
     parts = api.part_library().library.parts
-    return {name: t.primitive_names() for name, t in sorted(parts.items()) if not t.parameters}
+    return {
+        name: [(d.name, d.kind) for d in t.definition.items if isinstance(d, ast.PrimitiveDecl)]
+        for name, t in sorted(parts.items())
+        if not t.parameters
+    }
 
 
 # ---------------------------------------------------------------- generated programs
 
 EXTREME = st.sampled_from(["0", "1e6", "-1e6", "999999.9", "1e-9", "1e400", "1e308 * 10", "0.0001", "-720"])
-# mostly what a user writes, now and then a mistake or an extreme
-SIZES = st.one_of(st.integers(1, 600).map(str), st.integers(1, 600).map(str), EXTREME)
-COORDINATES = st.one_of(st.integers(-500, 1500).map(str), st.integers(-500, 1500).map(str), EXTREME)
-ANGLES = st.one_of(st.sampled_from(["0", "90", "180", "-90", "45"]), st.integers(-360, 360).map(str), EXTREME)
+
+
+def mostly(sensible: st.SearchStrategy[str]) -> st.SearchStrategy[str]:
+    """What a user writes, and one time in 40 a mistake or an extreme."""
+    return st.integers(0, 39).flatmap(lambda k: EXTREME if k == 0 else sensible)
+
+
+SIZES = mostly(st.integers(1, 600).map(str))
+COORDINATES = mostly(st.integers(-500, 1500).map(str))
+ANGLES = mostly(st.one_of(st.sampled_from(["0", "90", "180", "-90", "45"]), st.integers(-360, 360).map(str)))
 BARE = {
     "Rod": "radius: {a}, length: {b}",
     "Surface": "width: {a}, length: {b}",
     "Edge": "width: {a}, length: {b}, height: {c}",
     "Hemisphere": "radius: {a}",
 }
+End = tuple[str, str]  # `part.primitive` as written, and the primitive's kind
 
 
 def frame(draw: st.DrawFn) -> str:
@@ -63,44 +76,57 @@ def frame(draw: st.DrawFn) -> str:
     return at + (f" rot ({draw(ANGLES)}, {draw(ANGLES)}, {draw(ANGLES)})" if draw(st.booleans()) else "")
 
 
+def pair(draw: st.DrawFn, ends: list[End], placed: list[End]) -> tuple[str, str]:
+    """Two ends to connect: nine times in ten a pair the connectivity table allows."""
+    fitting = [(a, b) for a in ends for b in placed if frozenset((a[1], b[1])) in CONNECTABLE]
+    if fitting and draw(st.integers(0, 9)):
+        a, b = draw(st.sampled_from(fitting))
+    else:
+        a, b = draw(st.sampled_from(ends)), draw(st.sampled_from(placed))
+    return a[0], b[0]
+
+
 @st.composite
 def generated_program(draw: st.DrawFn) -> str:
     """A program as a user might write one: environments, parts hung one below
-    another (each from an open end of what is already placed), a few extra
-    connections that may close loops or be wrong, a loop, a parameter, an
-    import, a target; numbers mostly sensible, now and then extreme."""
+    another (each from an end of what is already placed, mostly one that fits),
+    a few extra connections that may close loops or be wrong, a loop, a
+    parameter, an import, a target; numbers mostly sensible, now and then extreme."""
     parts = library()
     lines: list[str] = []
-    placed: list[str] = []  # connectable ends of what hangs from an environment
+    placed: list[End] = []  # connectable ends of what hangs from an environment
     if draw(st.booleans()):
         kind = draw(st.sampled_from(sorted(BARE)))
         args = BARE[kind].format(a=draw(SIZES), b=draw(SIZES), c=draw(SIZES))
         lines.append(f"environment env = {kind}({args}) {frame(draw)}")
-        placed.append("env")
+        placed.append(("env", kind.lower()))
     for k in range(draw(st.integers(0 if placed else 1, 2))):
         name = draw(st.sampled_from(sorted(parts)))
         lines.append(f"environment fixed{k} = {name}() {frame(draw)}")
-        placed += [f"fixed{k}.{p}" for p in parts[name]]
-    if draw(st.booleans()):
-        lines.append(f"param n in 1 .. {draw(st.integers(0, 5))} = {draw(st.integers(0, 5))}")
-        lines += ["link = " + placed[0], "for i in 1 .. n {", "  h[i] = DoubleHook()"]
-        lines += ["  connect h[i].hook2 -- link", "  link = h[i].hook1", "}"]
+        placed += [(f"fixed{k}.{p}", kind) for p, kind in parts[name]]
+    if draw(st.booleans()) and any(kind == "rod" for _, kind in placed):
+        lines.append(f"param n in 1 .. {draw(st.integers(0, 5))} = {draw(st.integers(1, 5))}")
+        lines += ["link = " + next(e for e, kind in placed if kind == "rod"), "for i in 1 .. n {"]
+        lines += ["  h[i] = DoubleHook()", "  connect h[i].hook2 -- link", "  link = h[i].hook1", "}"]
     if draw(st.booleans()):
         lines.append('import "lib/s_hook_chain.fhl"')
         lines.append(f"chain = SHookChain(n: {draw(st.integers(0, 9))})")
-        lines.append(f"connect chain.top -- {draw(st.sampled_from(placed))}")
-        placed.append("chain.bottom")
+        lines.append(
+            f"connect {pair(draw, [('chain.top', 'hook')], placed)[0]} -- {draw(st.sampled_from(placed))[0]}"
+        )
+        placed.append(("chain.bottom", "hook"))
     movable: list[str] = []
     for k in range(draw(st.integers(1, 4))):
         name = draw(st.sampled_from(sorted(parts)))
         lines.append(f"p{k} = {name}()")
-        ends = [f"p{k}.{p}" for p in parts[name]]
-        option = draw(st.sampled_from(["", "", " flip", " fixed"]))
-        lines.append(f"connect {draw(st.sampled_from(ends))} -- {draw(st.sampled_from(placed))}{option}")
+        ends = [(f"p{k}.{p}", kind) for p, kind in parts[name]]
+        a, b = pair(draw, ends, placed)
+        lines.append(f"connect {a} -- {b}" + draw(st.sampled_from(["", "", "", " flip", " fixed"])))
         placed += ends
-        movable += ends
+        movable += [e for e, _ in ends]
     for _ in range(draw(st.integers(0, 2))):  # loops, or mistakes
-        lines.append(f"connect {draw(st.sampled_from(placed))} -- {draw(st.sampled_from(placed))}")
+        a, b = pair(draw, placed, placed)
+        lines.append(f"connect {a} -- {b}")
     lines.append(f"target {draw(st.sampled_from(movable))} {frame(draw)}")
     return "\n".join(draw(st.permutations(lines)) if draw(st.integers(0, 19)) == 0 else lines) + "\n"
 
@@ -124,7 +150,7 @@ def mutated_gallery_program(draw: st.DrawFn) -> tuple[str, str]:
         elif action == "duplicate":
             lines.insert(k, lines[k])
         elif action == "swap primitive":
-            primitive = draw(st.sampled_from(sorted({p for ps in library().values() for p in ps})))
+            primitive = draw(st.sampled_from(sorted({name for ps in library().values() for name, _ in ps})))
             lines[k] = re.sub(r"\.(\w+)\b", "." + primitive, lines[k], count=1)
         elif action == "extreme number":
             extreme = draw(st.sampled_from(["0", "-1", "1e6", "-1e6", "1e400", "0.000001", "45.7001", "99"]))
