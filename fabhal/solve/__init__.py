@@ -158,10 +158,14 @@ def _solve_once(model: Model, options: SolveOptions, loop_start: Array | None) -
         settled = _settle(step1, x, masses, centres, goal)
         if fit.runner_up is not None and not step1.out_of_time():
             options.report("step 2: settling from another start")
-            other = _settle(step1, step1.full(fit.runner_up), masses, centres, goal)
+            start = step1.full(fit.runner_up)
+            # a plain settle to compare; the stability test and the turn only if it wins
+            other = _settle(step1, start, masses, centres, goal, thorough=False)
             settled, disagreement = _pick(
                 model, goal, settled, other, lambda s: _energy(model.part_frames(s.x), masses, centres)
             )
+            if settled is other:
+                settled = _settle(step1, start, masses, centres, goal)
             if disagreement is not None:
                 notes.append(disagreement)
         if settled.equilibrium is not None and settled.equilibrium > EQUILIBRIUM_TOLERANCE:
@@ -205,10 +209,18 @@ class Settled:
     falls: tuple[Fall, ...]
 
 
-def _settle(step1: Problem, x: Array, masses: Array, centres: Array, goal: target_mod.TargetGoal) -> Settled:
+def _settle(
+    step1: Problem,
+    x: Array,
+    masses: Array,
+    centres: Array,
+    goal: target_mod.TargetGoal,
+    thorough: bool = True,
+) -> Settled:
     """Step 2 from step 1's `x`: held DoFs stay, the rest settle under gravity (with
     friction from where they start), stably, turned towards the request among
-    equally low configurations, then verified at rest."""
+    equally low configurations, then verified at rest. Not `thorough`: settled
+    and verified only, without the stability test and the turn (for comparing)."""
     model = step1.model
     held = {i for j in model.joints if j.held for i in j.a.dof_indices + j.b.dof_indices}
     movable = np.array([i for i in step1.free if i not in held], dtype=int)
@@ -216,10 +228,12 @@ def _settle(step1: Problem, x: Array, masses: Array, centres: Array, goal: targe
     energy = with_friction(model, potential(model, masses, centres), masses, x)
     weight = _weight(masses)
     at_rest = SETTLE_TOLERANCE * weight
-    if len(movable):
+    if len(movable) and thorough:
         x, curvature = _settle_stably(step2, energy, x, at_rest, weight)
         if not step2.out_of_time():
             x = _turn_towards_target(step2, energy, goal, x, at_rest, TARGET_PULL * weight, curvature)
+    elif len(movable):
+        x = step2.full(settle(step2, energy, x[movable], at_rest).x)
     equilibrium, at_bound, falls = _verify(step2, energy, x, masses)
     for _ in range(POLISH_ROUNDS):  # a long loop's flat valley may need more iterations
         if equilibrium <= EQUILIBRIUM_TOLERANCE or not len(movable) or step2.out_of_time():

@@ -179,7 +179,9 @@ class Fit:
     runner_up: Array | None = None
 
 
-def fit_target(problem: Problem, goal: target_mod.TargetGoal, starts: list[Array]) -> Fit:
+def fit_target(
+    problem: Problem, goal: target_mod.TargetGoal, starts: list[Array], evaluations: int = FIT_EVALUATIONS
+) -> Fit:
     """Best free DoFs over the starts.
 
     Every start is fitted for FIT_PROBE_EVALUATIONS first and only the most
@@ -216,7 +218,7 @@ def fit_target(problem: Problem, goal: target_mod.TargetGoal, starts: list[Array
     (cost, best), others = probes[0], [v for c, v in probes[1:] if np.isfinite(c)]
     if problem.out_of_time():
         return Fit(best, True)
-    v, final = fit(best, FIT_EVALUATIONS)
+    v, final = fit(best, evaluations)
     fitted = cost < GOOD_FIT**2 or not others
     return Fit(v if final <= cost else best, False, None if fitted else others[0])
 
