@@ -4,11 +4,11 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 from fabhal.check import CheckContext, CheckReport, check_program
-from fabhal.diagnostics import Diagnostic, has_errors, merge_repeats, sort_diagnostics
+from fabhal.diagnostics import Diagnostic, error, has_errors, merge_repeats, sort_diagnostics
 from fabhal.elaborate import FlatProgram, elaborate
 from fabhal.library import Library, build_library
 from fabhal.load import LoadedProgram, load_program
@@ -80,7 +80,7 @@ def solve(
 
     `time_limit` (seconds) counts from here and bounds every stage: reading,
     checking (the loops' closure solve) and solving."""
-    from fabhal.solve import SolveOptions
+    from fabhal.solve import NumericFailure, SolveOptions
     from fabhal.solve import solve as run_solver
 
     started = time.perf_counter()
@@ -101,7 +101,20 @@ def solve(
     options = SolveOptions(
         seed=seed, time_limit=time_limit, deadline=deadline, gravity=gravity, progress=progress
     )
-    solution = run_solver(result.model, options, loops.x if loops is not None else None)
+    try:
+        solution = run_solver(result.model, options, loops.x if loops is not None else None)
+    except NumericFailure as failure:
+        timing["solve_s"] = time.perf_counter() - checked
+        broken = error(
+            "E505",
+            f"the solver failed: its numbers stopped being numbers in {failure.step}, at part "
+            f"`{failure.part}`",
+            result.model.program.targets[0].span,
+            f"check `{failure.part}`'s definition (its mesh, mass and dimensions); if they are sound, "
+            "this is a bug in FabHaL: please report it with the program",
+        )
+        failed = replace(result, diagnostics=tuple(sort_diagnostics([*result.diagnostics, broken])))
+        return SolveResult("error", failed, None, seed, timing)
     timing["solve_s"] = time.perf_counter() - checked
     return SolveResult(solution.status, result, solution, seed, timing)
 

@@ -342,8 +342,8 @@ class _Iteration:
     def start_from(self, hessian: Array | None) -> None:
         """BFGS from a measured Hessian, made positive definite (eigenvalues
         mirrored and floored: a saddle's downhill direction keeps its scale);
-        None (not measured: out of time) leaves the model to its first steps."""
-        if hessian is None:
+        None (not measured: out of time) or a broken one leaves the model to its first steps."""
+        if hessian is None or not np.all(np.isfinite(hessian)):
             return
         values, vectors = np.linalg.eigh(0.5 * (hessian + hessian.T))
         floor = 1e-6 * max(float(np.abs(values).max(initial=0.0)), 1e-12)
@@ -509,7 +509,7 @@ def tangent_curvature(
     # a step long against rounding (the Hessian is read for its sign), short against the
     # friction's half-millimetre smoothing
     hessian = _lagrangian_hessian(problem, u, gradient, a, step=1e-2, rows=rows, deadline=deadline)
-    if hessian is None:
+    if hessian is None or not np.all(np.isfinite(hessian)):
         return np.zeros(0), np.zeros((len(u), 0))
     null = np.eye(len(u))
     if len(rows):

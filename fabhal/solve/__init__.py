@@ -75,6 +75,15 @@ class SolveOptions:
             self.progress(doing)
 
 
+class NumericFailure(Exception):
+    """The solver's numbers stopped being numbers (NaN or infinite) in a step:
+    which step, and the first part whose frame, mass or centre of mass broke."""
+
+    def __init__(self, step: str, part: str) -> None:
+        self.step, self.part = step, part
+        super().__init__(f"non-finite numbers in {step} at part {part}")
+
+
 @dataclass(frozen=True)
 class Fall:
     joint: int
@@ -144,6 +153,10 @@ def _solve_once(model: Model, options: SolveOptions, loop_start: Array | None) -
     options.report("step 1: bringing the target to its frame")
     fit = fit_target(step1, goal, starts)
     x = step1.full(fit.v)
+    # step 1 moves parts without their masses: only its frames can break
+    _require_finite(
+        model, x, np.zeros_like(masses), np.zeros_like(centres), "step 1 (bringing the target to its frame)"
+    )
     if fit.late:
         notes.append(_late(options))
     elif not step1.out_of_time() and reach.out_of_reach(
@@ -155,6 +168,7 @@ def _solve_once(model: Model, options: SolveOptions, loop_start: Array | None) -
     settled = Settled(x, None, (), ())
     if options.gravity:
         options.report("step 2: settling under gravity")
+        _require_finite(model, x, masses, centres, "step 2 (settling under gravity)")
         settled = _settle(step1, x, masses, centres, goal)
         if fit.runner_up is not None and not step1.out_of_time():
             options.report("step 2: settling from another start")
@@ -181,6 +195,7 @@ def _solve_once(model: Model, options: SolveOptions, loop_start: Array | None) -
         if step1.out_of_time() and not fit.late:
             notes.append(_late(options))
     x = settled.x
+    _require_finite(model, x, masses, centres, "step 2 (settling under gravity)")
     frames = model.part_frames(x)
     diagnostics = [*notes, *(_fall_diagnostic(model, f) for f in settled.falls)]
     return Solution(
@@ -286,6 +301,14 @@ def _pick(
         "how the parts are first hung decides where a builder's hack comes to rest: hang them as the "
         "result shows (docs/errors.md, N505, gives the rule)",
     )
+
+
+def _require_finite(model: Model, x: Array, masses: Array, centres: Array, step: str) -> None:
+    """Raise NumericFailure naming the first part whose frame, mass or centre is not a number."""
+    frames = model.part_frames(x) if np.all(np.isfinite(x)) else np.full((len(model.parts), 4, 4), np.nan)
+    finite = np.isfinite(frames).all(axis=(1, 2)) & np.isfinite(masses) & np.isfinite(centres).all(axis=1)
+    if not finite.all():
+        raise NumericFailure(step, model.parts[int(np.argmin(finite))].name)
 
 
 def _energy(frames: Array, masses: Array, centres: Array) -> float:
@@ -513,4 +536,4 @@ def _fall_diagnostic(model: Model, fall: Fall) -> Diagnostic:
     )
 
 
-__all__ = ["Fall", "Solution", "SolveOptions", "solve"]
+__all__ = ["Fall", "NumericFailure", "Solution", "SolveOptions", "solve"]
