@@ -253,8 +253,7 @@ def _add_drawing_options(command: argparse.ArgumentParser) -> None:
 def _gallery_display() -> str:
     """Where the gallery is, as the user would type it: relative inside a
     checkout, the installed path otherwise (so `--help`'s examples run as printed)."""
-    from fabhal.load import display_name
-    from fabhal.resources import gallery_dir
+    from fabhal.resources import display_name, gallery_dir
 
     return display_name(gallery_dir())
 
@@ -403,8 +402,8 @@ def run_check(args: argparse.Namespace) -> int:
 
 
 def run_solve(args: argparse.Namespace) -> int:
-    from fabhal.load import display_name
     from fabhal.report import solution as report
+    from fabhal.resources import display_name
 
     result = _solved(args, args.render)
     if isinstance(result, int):
@@ -467,8 +466,8 @@ def _solve_with_status(args: argparse.Namespace) -> Any:
 
 
 def run_render(args: argparse.Namespace) -> int:
-    from fabhal.load import display_name
     from fabhal.report import solution as report
+    from fabhal.resources import display_name
 
     result = _solved(args, args.output)
     if isinstance(result, int):

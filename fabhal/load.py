@@ -10,12 +10,12 @@ it once.
 
 from __future__ import annotations
 
-import os
 from dataclasses import dataclass
 from pathlib import Path
 
 from fabhal import resources
 from fabhal.diagnostics import Diagnostic, FabhalError, error
+from fabhal.resources import display_name
 from fabhal.source import SourceFile
 from fabhal.syntax import ast
 from fabhal.syntax.parser import parse_source, parse_source_cached
@@ -35,19 +35,6 @@ class LoadedProgram:
     sources: dict[str, SourceFile]
     paths: dict[str, Path]  # display name -> file, to resolve paths written in a module
     diagnostics: tuple[Diagnostic, ...]
-
-
-def display_name(path: Path) -> str:
-    """The path as the user would write it: relative to the working directory when
-    inside it; library files as `stdlib_parts/...` wherever the library is installed."""
-    library = resources.stdlib_dir().resolve()
-    if path.resolve().is_relative_to(library):
-        return str(Path("stdlib_parts") / path.resolve().relative_to(library))
-    try:
-        relative = os.path.relpath(path)
-    except ValueError:  # another drive on Windows
-        return str(path)
-    return str(path) if relative.startswith("..") else relative
 
 
 def read_source(path: Path) -> SourceFile:

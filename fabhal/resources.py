@@ -38,6 +38,19 @@ def gallery_dir() -> Path:
     return _data_dir("programs")
 
 
+def display_name(path: Path) -> str:
+    """The path as the user would write it: relative to the working directory when
+    inside it; library files as `stdlib_parts/...` wherever the library is installed."""
+    library = stdlib_dir().resolve()
+    if path.resolve().is_relative_to(library):
+        return str(Path("stdlib_parts") / path.resolve().relative_to(library))
+    try:
+        relative = os.path.relpath(path)
+    except ValueError:  # another drive on Windows
+        return str(path)
+    return str(path) if relative.startswith("..") else relative
+
+
 def cache_dir() -> Path | None:
     """A per-user cache directory (never the installed package), or None if unwritable."""
     base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
