@@ -38,9 +38,10 @@ def evaluate(expr: ast.Expr, env: Mapping[str, Value]) -> Value:
 
 
 def _out_of_range(expr: ast.Expr, value: float) -> Diagnostic:
-    written = expr.text if isinstance(expr, ast.Number) and expr.text else None
-    shown = written or (f"{value:g}" if math.isfinite(value) else "not a finite number")
-    what = f"`{written}`" if written else f"this expression ({shown})"
+    if isinstance(expr, ast.Number) and expr.text:
+        what = f"`{expr.text}`"
+    else:
+        what = f"this expression ({f'{value:g}' if math.isfinite(value) else 'not a finite number'})"
     return error(
         "E224",
         f"{what} is out of range: numbers lie within ±{MAGNITUDE_LIMIT:,.0f}",

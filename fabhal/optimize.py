@@ -281,9 +281,9 @@ class _Iteration:
         self.fixed = np.zeros(n, dtype=bool)
         self.hessian = np.zeros((n, n))  # of the quadratic model of the last step
         self.max_step = np.inf  # longest move of a scaled variable in one step
-        # least squares: how far the last steps showed the model to hold (halved where
-        # a step had to be shortened, doubled after a step it predicted well); this,
-        # not more damping, keeps the next step from needing the same halvings
+        # least squares: how far the last steps showed the model to hold (twice the step
+        # taken where one had to be shortened, doubled after a step it predicted well);
+        # this, not more damping, keeps the next step from needing the same halvings
         self.radius = np.inf
         self.gauss_newton = np.zeros((n, n))  # J^T J at the last point (least squares)
         self.corrected = False  # least squares: whether the model includes S (NL2SOL's choice)
@@ -411,8 +411,9 @@ class _Iteration:
         self.corrected = abs(corrected - lowered) < abs(plain - lowered)
 
     def _adapt(self, full_step: bool, ratio: float) -> None:
-        """Levenberg-Marquardt: trust the quadratic model more where it predicted
-        well, less where it did not or its step had to be shortened."""
+        """Levenberg-Marquardt: trust the quadratic model more where its whole step
+        predicted well, less where it predicted badly (a shortened step limits the
+        next one through `radius` instead)."""
         if full_step and ratio > 0.75:
             self.damping = max(self.damping / 3.0, 1e-12)
         elif ratio < 0.25:

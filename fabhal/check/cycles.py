@@ -147,9 +147,7 @@ def _positions(model: Model, side: Side) -> Samples:
     return points, resolution
 
 
-def _distance_range(
-    first: tuple[Array, float], second: tuple[Array, float], same: bool
-) -> tuple[float, float]:
+def _distance_range(first: Samples, second: Samples, same: bool) -> tuple[float, float]:
     """The range of distances between the two connectors, widened by both grids' resolution."""
     (a, a_resolution), (b, b_resolution) = first, second
     distances = np.linalg.norm(a[:, None, :] - b[None, :, :], axis=-1)

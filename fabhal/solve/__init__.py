@@ -194,8 +194,8 @@ def _solve_once(model: Model, options: SolveOptions, loop_start: Array | None) -
             )
         if step1.out_of_time() and not fit.late:
             notes.append(_late(options))
+        _require_finite(model, settled.x, masses, centres, "step 2 (settling under gravity)")
     x = settled.x
-    _require_finite(model, x, masses, centres, "step 2 (settling under gravity)")
     frames = model.part_frames(x)
     diagnostics = [*notes, *(_fall_diagnostic(model, f) for f in settled.falls)]
     return Solution(
@@ -275,7 +275,10 @@ def _pick(
         resting = result.equilibrium is not None and result.equilibrium <= EQUILIBRIUM_TOLERANCE
         return bool(result.falls), not resting, round(position + rotation, 1), energy(result)
 
-    chosen, other = (first, second) if rank(first) <= rank(second) else (second, first)
+    ranks = [rank(first), rank(second)]
+    (chosen, chosen_rank), (other, other_rank) = sorted(
+        zip((first, second), ranks, strict=True), key=lambda pair: pair[1]
+    )
     a = target_mod.achieved(goal, model.part_frames(chosen.x))
     b = target_mod.achieved(goal, model.part_frames(other.x))
     apart, turned = target_mod.errors(replace(goal, requested=b), a)
@@ -285,7 +288,7 @@ def _pick(
     far, far_deg = target_mod.errors(goal, b)
     if other.falls:
         why = "the other falls apart"
-    elif rank(other)[1] and not rank(chosen)[1]:
+    elif other_rank[1] and not chosen_rank[1]:
         why = "the other is not at rest"
     else:
         why = (
