@@ -161,12 +161,12 @@ def variant_of(kind: str, flags: Mapping[str, bool]) -> str:
 # ---------------------------------------------------------------- validation
 
 
-_RULE_FIX = {
-    "positive": "a value above 0",
-    "nonnegative": "a value of 0 or more",
-    "arc_angle": "an angle above 0 and at most 360",
+# each rule of ParamSpec: whether a value follows it, what the value must do, how to mend it
+_RULES: dict[str, tuple[Callable[[float], bool], str, str]] = {
+    "positive": (lambda v: v > 0, "be positive", "a value above 0"),
+    "nonnegative": (lambda v: v >= 0, "not be negative", "a value of 0 or more"),
+    "arc_angle": (lambda v: 0 < v <= 360, "be in (0, 360]", "an angle above 0 and at most 360"),
 }
-_RULE_WORDS = {"positive": "be positive", "nonnegative": "not be negative", "arc_angle": "be in (0, 360]"}
 _PAIR_FIX = {
     "thickness": "make `thickness` (the wire's radius) smaller than `arc_radius`",
     "tip": "write `tip: 0` (the tip at the arc's start) or `tip` equal to `arc_angle` (at its end)",
@@ -177,19 +177,9 @@ def param_fix(kind: str, name: str, value: float) -> str:
     """How to mend a shape parameter that `check_params` rejected: its own rule
     if `value` breaks it, else the rule that relates it to another parameter."""
     spec = next(p for p in KINDS[kind].params if p.name == name)
-    if _follows_rule(spec.rule, value):
-        fix = _PAIR_FIX[name]
-    else:
-        fix = f"give `{name}` {_RULE_FIX[spec.rule]} ({spec.unit})"
+    follows, _, mend = _RULES[spec.rule]
+    fix = _PAIR_FIX[name] if follows(value) else f"give `{name}` {mend} ({spec.unit})"
     return f"{fix}; docs/primitives.md describes each {kind} parameter"
-
-
-def _follows_rule(rule: str, value: float) -> bool:
-    if rule == "positive":
-        return value > 0
-    if rule == "nonnegative":
-        return value >= 0
-    return 0 < value <= 360
 
 
 def check_params(kind: str, params: Mapping[str, float]) -> list[tuple[str | None, str]]:
@@ -202,8 +192,9 @@ def check_params(kind: str, params: Mapping[str, float]) -> list[tuple[str | Non
                 problems.append((None, f"missing parameter `{p.name}` ({p.unit})"))
             continue
         value = params[p.name]
-        if not _follows_rule(p.rule, value):
-            problems.append((p.name, f"{p.name} == {value:g}, but must {_RULE_WORDS[p.rule]}"))
+        follows, must, _ = _RULES[p.rule]
+        if not follows(value):
+            problems.append((p.name, f"{p.name} == {value:g}, but must {must}"))
     if kind in ("hook", "hole") and {"arc_radius", "thickness"} <= params.keys():
         if params["thickness"] >= params["arc_radius"]:
             problems.append(
