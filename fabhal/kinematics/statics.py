@@ -1,0 +1,91 @@
+"""Statics of an assembly of rigid parts: the force each connection carries.
+
+Pure numpy over arrays. Each connection j transmits a wrench from its part a
+to its part b: a force f_j (N) and a moment m_j (N mm) about its contact point
+p_j. Each movable part balances its weight with the wrenches of its
+connections (6 equations: forces, and moments about its centre of mass), and a
+connection transmits nothing along a motion it leaves free (one equation per
+free degree of freedom: the wrench does no work on its twist). Where the
+equations leave the wrenches undetermined (a part held at two points: a
+statically indeterminate loop) the smallest wrenches are taken (least squares,
+moments counted per MOMENT_ARM_MM): the answer then depends neither on the order
+of the equations nor on that of the unknowns, so not on the order of a
+program's lines.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from fabhal.kinematics.frames import Array
+
+# moments enter the least squares divided by this lever arm (mm): the size of an
+# everyday part, so a newton and a newton-decimetre weigh alike
+MOMENT_ARM_MM = 100.0
+
+
+@dataclass(frozen=True)
+class Wrenches:
+    forces: Array  # (J, 3) N, what part a exerts on part b, world axes
+    moments: Array  # (J, 3) N mm about each connection's contact point
+    imbalance: float  # largest unbalanced force (N, moments per MOMENT_ARM_MM) over all parts
+
+
+def _skew(r: Array) -> Array:
+    """(..., 3) -> (..., 3, 3) with skew(r) @ f = r x f."""
+    out = np.zeros((*r.shape[:-1], 3, 3))
+    out[..., 0, 1], out[..., 0, 2] = -r[..., 2], r[..., 1]
+    out[..., 1, 0], out[..., 1, 2] = r[..., 2], -r[..., 0]
+    out[..., 2, 0], out[..., 2, 1] = -r[..., 1], r[..., 0]
+    return out
+
+
+def joint_wrenches(
+    part_a: Array,
+    part_b: Array,
+    points: Array,
+    movable: Array,
+    loads: Array,
+    centres: Array,
+    free_joint: Array,
+    free_velocity: Array,
+    free_rotation: Array,
+) -> Wrenches:
+    """The wrenches that hold every movable part in balance.
+
+    part_a, part_b: (J,) part indices of each connection; points: (J, 3) its
+    contact point (mm, world); movable: (P,) whether a part's balance is
+    written (not for environments); loads: (P, 3) the force of gravity on each
+    part (N) at centres: (P, 3) its centre of mass (mm, world); free_joint: (F,)
+    the connection of each free motion, free_velocity (F, 3) the velocity of b
+    against a at the contact point (mm per unit) and free_rotation (F, 3) its
+    angular velocity (rad per unit)."""
+    n_joints, n_parts = len(part_a), len(movable)
+    row_of = np.full(n_parts, -1)
+    row_of[movable] = np.arange(int(movable.sum()))
+    n_balance = 6 * int(movable.sum())
+    matrix = np.zeros((n_balance + len(free_joint), 6 * n_joints))
+    rhs = np.zeros(n_balance + len(free_joint))
+    for parts, sign in ((part_b, 1.0), (part_a, -1.0)):
+        for j in np.flatnonzero(row_of[parts] >= 0):
+            r, c = 6 * row_of[parts[j]], 6 * j
+            arm = (points[j] - centres[parts[j]]) / MOMENT_ARM_MM
+            matrix[r : r + 3, c : c + 3] += sign * np.eye(3)
+            matrix[r + 3 : r + 6, c : c + 3] += sign * _skew(arm)
+            matrix[r + 3 : r + 6, c + 3 : c + 6] += sign * np.eye(3)
+    placed = np.flatnonzero(movable)
+    rhs[:n_balance].reshape(-1, 6)[:, :3] = -loads[placed]
+    # no work along a free motion: f . v + m . w = 0, with m = MOMENT_ARM_MM x the unknown
+    rows = np.hstack([free_velocity, MOMENT_ARM_MM * free_rotation])
+    norms = np.linalg.norm(rows, axis=1, keepdims=True)
+    rows = rows / np.where(norms > 0.0, norms, 1.0)
+    for k, j in enumerate(free_joint):
+        matrix[n_balance + k, 6 * j : 6 * j + 6] = rows[k]
+    solution = np.asarray(
+        np.linalg.lstsq(matrix, rhs, rcond=None)[0] if matrix.size else np.zeros(0), dtype=float
+    )
+    wrenches = solution.reshape(n_joints, 6)
+    imbalance = float(np.abs(matrix @ solution - rhs).max()) if len(rhs) else 0.0
+    return Wrenches(wrenches[:, :3], wrenches[:, 3:] * MOMENT_ARM_MM, imbalance)
