@@ -8,7 +8,8 @@ along its tree path:
     part2world(child) = part2world(parent) @ B_p @ C_p(x_p) @ A @ inv(B_c @ C_c(x_c))
 
 (B: the primitive's frame in its part, C: its connector frame, A: the
-alignment offset). The tree grows from the environments in program order.
+alignment offset). The tree grows from the environments in a canonical order of the
+connections (what they join, not where they are written).
 Every connection off the tree closes a loop and becomes a closure
 constraint: world(a connector) @ A == world(b connector).
 """
@@ -458,7 +459,7 @@ def build_model(program: FlatProgram) -> Model:
     index = {p.name: i for i, p in enumerate(program.parts)}
     variables: list[DofVariable] = []
     joints: list[Joint] = []
-    for j, connection in enumerate(program.connections):
+    for j, connection in enumerate(sorted(program.connections, key=_connection_key)):
         sides = []
         for label, end in (("a", connection.a), ("b", connection.b)):
             part = index[end.part]
@@ -475,6 +476,16 @@ def build_model(program: FlatProgram) -> Model:
     tree, closures, unplaced = _spanning_tree(program, joints)
     pinned = frozenset(i for joint in joints for i in _resting_surface(joint))
     return Model(program, program.parts, tuple(joints), tree, closures, tuple(variables), unplaced, pinned)
+
+
+def _connection_key(connection: Connection) -> tuple[tuple[str, str], ...]:
+    """Connections in an order of their own, not the program's: the parts and
+    primitives they join. The spanning tree, the loops it cuts and the order of
+    the unknowns then follow from what is connected, so a program's answer does
+    not depend on the order of its lines."""
+    return tuple(
+        sorted(((connection.a.part, connection.a.primitive), (connection.b.part, connection.b.primitive)))
+    )
 
 
 def _holds_by_itself(first: str, second: str) -> bool:
@@ -502,10 +513,10 @@ def _resting_surface(joint: Joint) -> tuple[int, ...]:
 def _spanning_tree(
     program: FlatProgram, joints: list[Joint]
 ) -> tuple[tuple[TreeEdge, ...], tuple[int, ...], tuple[int, ...]]:
-    """Grow the tree in program order: a connection that reaches a new part is a
-    tree edge, one between two placed parts closes a loop; a connection between
-    two unplaced parts waits for a later pass. So the order a user writes is the
-    order parts are hung, as in the paper's `connect`."""
+    """Grow the tree over the connections in their order (`_connection_key`): a
+    connection that reaches a new part is a tree edge, one between two placed
+    parts closes a loop; a connection between two unplaced parts waits for a
+    later pass."""
     placed = {i for i, p in enumerate(program.parts) if p.environment}
     tree: list[TreeEdge] = []
     decided: set[int] = set()

@@ -21,7 +21,7 @@ import numpy as np
 from fabhal.check.context import CheckContext
 from fabhal.diagnostics import Diagnostic, error, warning
 from fabhal.kinematics.frames import Array, frame_matrix
-from fabhal.model import Model, Side
+from fabhal.model import Joint, Model, Side
 from fabhal.optimize import least_squares_objective, minimize
 
 ENVIRONMENT = -1  # all environment parts act as one rigid link
@@ -306,7 +306,7 @@ def check(ctx: CheckContext) -> tuple[list[Diagnostic], LoopReport | None]:
     report = close_loops(model, ctx.seed, deadline=ctx.deadline)
     if not report.closed:
         loop = loops[0]
-        joint = model.joints[loop.closing_joint]
+        joint = _written_last(model, loop)
         if time.monotonic() > ctx.deadline:  # not shown to be impossible: out of time
             problems.append(
                 warning(
@@ -332,6 +332,13 @@ def check(ctx: CheckContext) -> tuple[list[Diagnostic], LoopReport | None]:
     return problems, report
 
 
+def _written_last(model: Model, loop: Loop) -> Joint:
+    """The loop's connection the user wrote last: the one that reads as closing
+    it (the model's own closing joint follows a canonical order, not the text's)."""
+    written = {id(c): i for i, c in enumerate(model.program.connections)}
+    return max((model.joints[j] for j in loop.joints), key=lambda joint: written[id(joint.connection)])
+
+
 def _loop_text(ctx: CheckContext, loop: Loop) -> str:
     """The loop's parts in order, starting from the environment when it is on the loop."""
     names = ["environment" if n == ENVIRONMENT else ctx.model.parts[n].name for n in loop.parts]
@@ -345,7 +352,7 @@ def _too_long(ctx: CheckContext, loop: Loop, links: list[Link]) -> Diagnostic:
     total_high = sum(link.high for link in links)
     longest = max(links, key=lambda link: link.low - (total_high - link.high))
     rest = total_high - longest.high
-    joint = ctx.model.joints[loop.closing_joint]
+    joint = _written_last(ctx.model, loop)
     return error(
         "E420",
         f"this connection closes a loop whose parts are too short: {_loop_text(ctx, loop)}",
