@@ -56,7 +56,7 @@ def part_library() -> CheckResult:
 class SolveResult:
     """What `fabhal solve` reports: a status, the check, and the solution if there is one."""
 
-    status: str  # solved, falls_apart, infeasible, out_of_time, error
+    status: str  # solved, falls_apart, not_at_rest, infeasible, out_of_time, error
     check: CheckResult
     solution: object | None  # fabhal.solve.Solution (imported lazily: `fabhal check` starts faster)
     seed: int

@@ -85,13 +85,14 @@ the target closest to its requested frame; step 2 lets the assembly settle
 under gravity from there (clips, `fixed` connections and things standing on a
 surface hold; a part slides along a rod only where gravity beats friction).
 If a connection would slide off an open end from every start tried, the
-status is `falls_apart` and the message names the connection.
+status is `falls_apart` and the message names the connection; a result that
+is not verified at rest (E503) has the status `not_at_rest`.
 
 --time-limit bounds the whole command (checking included): at the limit the
 best result so far is reported, with warning W502; if the loops of the design
 are not even closed by then, the status is `out_of_time`.
 
-exit status: 0 solved, 1 falls apart / infeasible / out of time / errors in
+exit status: 0 solved, 1 falls apart / not at rest / infeasible / out of time / errors in
 the program, 2 a file could not be read (or an internal error).
 """
 

@@ -37,7 +37,7 @@ BACKGROUND = (250, 250, 248)
 MARGIN = 60  # pixels around the hack in each view
 HEADER = 64  # pixels of title bar over the views
 AXIS_MM_FRACTION = 0.12  # target axes: this fraction of the hack's size
-STATUS_COLORS = {"solved": (30, 130, 60), "falls_apart": (200, 30, 30)}
+STATUS_COLORS = {"solved": (30, 130, 60), "falls_apart": (200, 30, 30), "not_at_rest": (200, 30, 30)}
 
 
 @dataclass(frozen=True)

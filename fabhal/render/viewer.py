@@ -65,7 +65,7 @@ _PAGE = """<!DOCTYPE html>
             border-left: 1px solid #ddd; background: #fff; padding: 14px; box-sizing: border-box; }}
   #panel h1 {{ font-size: 18px; margin: 0 0 6px; }}
   .status {{ font-weight: 600; }} .solved {{ color: #1e823c; }}
-  .falls_apart, .infeasible, .error {{ color: #c81e1e; }}
+  .falls_apart, .not_at_rest, .infeasible, .error {{ color: #c81e1e; }}
   #panel ul {{ padding-left: 16px; margin: 4px 0; }} #panel li {{ margin: 2px 0; }}
   code {{ font-size: 12px; }}
   .dofs {{ color: #555; font-size: 12px; }}

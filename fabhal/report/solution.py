@@ -111,6 +111,7 @@ def _solution(solution: Solution) -> dict[str, Any]:
 _STATUS_STYLE = {
     "solved": "bold green",
     "falls_apart": "bold red",
+    "not_at_rest": "bold red",
     "infeasible": "bold red",
     "out_of_time": "bold red",
     "error": "bold red",
@@ -118,6 +119,7 @@ _STATUS_STYLE = {
 _STATUS_TEXT = {
     "solved": "solved",
     "falls_apart": "falls apart",
+    "not_at_rest": "not solved: the result is not at rest",
     "infeasible": "infeasible: a loop cannot close",
     "out_of_time": "not solved: the time limit ended before the loops were closed",
     "error": "not solved: the program has errors",

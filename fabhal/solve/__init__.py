@@ -9,7 +9,7 @@ past the end of its range falls off. See fabhal/solve/steps.py.
 from __future__ import annotations
 
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -21,8 +21,10 @@ from fabhal.meshes import mass_properties
 from fabhal.model import Joint, Model
 from fabhal.solve import reach
 from fabhal.solve import target as target_mod
+from fabhal.solve.forces import connection_wrenches, friction_slides, slide_forces, weight_newtons
 from fabhal.solve.spacing import Spacing, spacing_constraints, spacing_values, spread
 from fabhal.solve.steps import (
+    FRICTION,
     Problem,
     closure_residual_mm,
     fit_target,
@@ -58,6 +60,10 @@ EQUILIBRIUM_TOLERANCE = 1e-3
 SETTLE_TOLERANCE = 0.1 * EQUILIBRIUM_TOLERANCE
 # two settled results from different starts are the same when their targets are
 # this close: a builder's precision (see fabhal/solve/reach.py)
+# settling again while the contacts' normal forces still change (friction comes from them)
+FRICTION_ROUNDS = 3
+# ...by more than this fraction of the assembly's weight (times FRICTION)
+FRICTION_AGREEMENT = 0.01
 DISAGREE_MM = 5.0
 DISAGREE_DEG = 5.0
 
@@ -94,7 +100,7 @@ class Fall:
 
 @dataclass(frozen=True)
 class Solution:
-    status: str  # solved, falls_apart
+    status: str  # solved, falls_apart, not_at_rest
     model: Model
     x: Array
     frames: Array
@@ -117,30 +123,35 @@ class Solution:
 def solve(model: Model, options: SolveOptions, loop_start: Array | None = None) -> Solution:
     """Fit, settle, verify. A configuration that falls apart may be the fault of
     the start rather than the design (step 1 can leave a `fixed` hook turned onto
-    its tip): up to FALL_RETRIES more attempts from the next seeds' starts, and
-    the first that holds is the answer, with a note saying so. The design falls
-    apart only when every attempt does."""
+    its tip): FALL_RETRIES more attempts from the next seeds' starts, and of those
+    that hold the one `_rank` prefers is the answer, with a note saying so. The
+    design falls apart only when every attempt does."""
     if options.time_limit is not None and not np.isfinite(options.deadline):
         options = replace(options, deadline=time.monotonic() + options.time_limit)
     first = _solve_once(model, options, loop_start)
     if not first.falls or not options.gravity:
         return first
+    held: list[tuple[int, Solution]] = []
     for k in range(1, FALL_RETRIES + 1):
         if time.monotonic() > options.deadline:
             break
         options.report(f"it fell apart; trying again from seed {options.seed + k}")
         retry = _solve_once(model, replace(options, seed=options.seed + k), None)
         if not retry.falls:
-            fall = first.falls[0]
-            held = Diagnostic(
-                Severity.NOTE,
-                "N504",
-                f"from the first start `{fall.part}` slid off here; from another start (seed "
-                f"{options.seed + k}) the design holds",
-                model.joints[fall.joint].connection.span,
-                "the result is that configuration; set up by hand, mind how this connection is turned",
-            )
-            return replace(retry, diagnostics=(held, *retry.diagnostics))
+            held.append((k, retry))
+    if held:
+        # of the attempts that hold, the rule between starts (`_pick`): at rest, then nearest the request
+        k, best = min(held, key=lambda attempt: _rank(attempt[1].goal, attempt[1].frames, attempt[1]))
+        fall = first.falls[0]
+        note = Diagnostic(
+            Severity.NOTE,
+            "N504",
+            f"from the first start `{fall.part}` slid off here; from another start (seed "
+            f"{options.seed + k}) the design holds",
+            model.joints[fall.joint].connection.span,
+            "the result is that configuration; set up by hand, mind how this connection is turned",
+        )
+        return replace(best, diagnostics=(note, *best.diagnostics))
     return first
 
 
@@ -182,14 +193,16 @@ def _solve_once(model: Model, options: SolveOptions, loop_start: Array | None) -
                 settled = _settle(step1, start, masses, centres, goal)
             if disagreement is not None:
                 notes.append(disagreement)
-        if settled.equilibrium is not None and settled.equilibrium > EQUILIBRIUM_TOLERANCE:
+        if not settled.falls and not _at_rest(settled):
             notes.append(
-                warning(
-                    "W503",
-                    "the settled assembly is not quite at rest "
-                    f"(equilibrium residual {settled.equilibrium:.1e})",
+                error(
+                    "E503",
+                    "not at rest: where the solver stopped, a force of "
+                    f"{100 * (settled.equilibrium or 0.0):.1f} % of the assembly's weight "
+                    "is still unbalanced",
                     model.program.targets[0].span,
-                    "the result may move a little further; try another --seed",
+                    "the hack would move on from the result shown: allow more time (--time-limit) or try "
+                    "another --seed; if it persists, the design has no resting place near this start",
                 )
             )
         if step1.out_of_time() and not fit.late:
@@ -199,7 +212,7 @@ def _solve_once(model: Model, options: SolveOptions, loop_start: Array | None) -
     frames = model.part_frames(x)
     diagnostics = [*notes, *(_fall_diagnostic(model, f) for f in settled.falls)]
     return Solution(
-        "falls_apart" if settled.falls else "solved",
+        "falls_apart" if settled.falls else "solved" if _at_rest(settled) else "not_at_rest",
         model,
         x,
         frames,
@@ -224,6 +237,20 @@ class Settled:
     falls: tuple[Fall, ...]
 
 
+def _normal_forces(problem: Problem, x: Array, masses: Array, centres: Array, slides: list[int]) -> Array:
+    """(len(slides),) N: the force across each slide's contact at x, the slides
+    held by friction, the DoFs that do not move in `problem` and those resting
+    on an end of their range carrying load, every other motion free."""
+    if not slides:
+        return np.zeros(0)
+    model = problem.model
+    moving = set(problem.free.tolist())
+    fixed = {i for i in range(len(model.variables)) if i not in moving}
+    ends = {int(problem.free[k]) for k in _resting_ends(problem, x)}
+    wrenches = connection_wrenches(model, x, masses, centres, fixed | ends | set(slides))
+    return slide_forces(model, x, wrenches, slides).normal
+
+
 def _settle(
     step1: Problem,
     x: Array,
@@ -240,7 +267,17 @@ def _settle(
     held = {i for j in model.joints if j.held for i in j.a.dof_indices + j.b.dof_indices}
     movable = np.array([i for i in step1.free if i not in held], dtype=int)
     step2 = Problem(model, movable, x.copy(), step1.spacing, step1.deadline)
-    energy = with_friction(model, potential(model, masses, centres), masses, x)
+    gravity = potential(model, masses, centres)
+    slides = [i for i in friction_slides(model) if i in set(movable.tolist())]
+    origin = x
+
+    def with_contacts(at: Array) -> tuple[Callable[[Array], tuple[float, Array]], Array]:
+        """The energy with friction from the normal forces of the contacts at `at`."""
+        normal = _normal_forces(step2, at, masses, centres, slides)
+        resistance = FRICTION * normal / 1000.0  # N -> joules per mm of sliding
+        return with_friction(model, gravity, slides, resistance, origin), resistance
+
+    energy, resistance = with_contacts(x)
     weight = _weight(masses)
     at_rest = SETTLE_TOLERANCE * weight
     if len(movable) and thorough:
@@ -249,6 +286,14 @@ def _settle(
             x = _turn_towards_target(step2, energy, goal, x, at_rest, TARGET_PULL * weight, curvature)
     elif len(movable):
         x = step2.full(settle(step2, energy, x[movable], at_rest).x)
+    for _ in range(FRICTION_ROUNDS):  # until friction agrees with the forces where it settled
+        if not slides or step2.out_of_time():
+            break
+        updated_energy, updated = with_contacts(x)
+        if np.abs(updated - resistance).max() <= FRICTION_AGREEMENT * FRICTION * weight:
+            break
+        energy, resistance = updated_energy, updated
+        x = step2.full(settle(step2, energy, x[movable], at_rest).x)
     equilibrium, at_bound, falls = _verify(step2, energy, x, masses)
     for _ in range(POLISH_ROUNDS):  # a long loop's flat valley may need more iterations
         if equilibrium <= EQUILIBRIUM_TOLERANCE or not len(movable) or step2.out_of_time():
@@ -256,6 +301,11 @@ def _settle(
         x = step2.full(settle(step2, energy, x[movable], at_rest).x)
         equilibrium, at_bound, falls = _verify(step2, energy, x, masses)
     return Settled(x, equilibrium, at_bound, falls)
+
+
+def _at_rest(settled: Settled) -> bool:
+    """Verified at rest (always, without gravity: nothing to settle)."""
+    return settled.equilibrium is None or settled.equilibrium <= EQUILIBRIUM_TOLERANCE
 
 
 def _pick(
@@ -270,12 +320,7 @@ def _pick(
     target hangs nearest the request (mm, and degrees counted as mm, as step 1
     measures); then the lower energy. N505 when they hang apart."""
 
-    def rank(result: Settled) -> tuple[bool, bool, float, float]:
-        position, rotation = target_mod.errors(goal, target_mod.achieved(goal, model.part_frames(result.x)))
-        resting = result.equilibrium is not None and result.equilibrium <= EQUILIBRIUM_TOLERANCE
-        return bool(result.falls), not resting, round(position + rotation, 1), energy(result)
-
-    ranks = [rank(first), rank(second)]
+    ranks = [_rank(goal, model.part_frames(result.x), result, energy(result)) for result in (first, second)]
     (chosen, chosen_rank), (other, other_rank) = sorted(
         zip((first, second), ranks, strict=True), key=lambda pair: pair[1]
     )
@@ -306,6 +351,17 @@ def _pick(
     )
 
 
+def _rank(
+    goal: target_mod.TargetGoal, frames: Array, result: Settled | Solution, energy: float = 0.0
+) -> tuple[bool, bool, float, float]:
+    """The order of preference between settled results: one that holds (does not
+    fall apart), then one at rest, then the target nearest the request (mm, and
+    degrees counted as mm, to 0.1), then the lower energy."""
+    position, rotation = target_mod.errors(goal, target_mod.achieved(goal, frames))
+    resting = result.equilibrium is not None and result.equilibrium <= EQUILIBRIUM_TOLERANCE
+    return bool(result.falls), not resting, round(position + rotation, 1), energy
+
+
 def _require_finite(model: Model, x: Array, masses: Array, centres: Array, step: str) -> None:
     """Raise NumericFailure naming the first part whose frame, mass or centre is not a number."""
     frames = model.part_frames(x) if np.all(np.isfinite(x)) else np.full((len(model.parts), 4, 4), np.nan)
@@ -315,25 +371,37 @@ def _require_finite(model: Model, x: Array, masses: Array, centres: Array, step:
 
 
 def _energy(frames: Array, masses: Array, centres: Array) -> float:
-    weights = masses / 1000.0 * 9.81 / 1000.0
+    weights = weight_newtons(masses) / 1000.0  # joules per mm of height
     heights = np.einsum("pj,pj->p", frames[:, 2, :3], centres) + frames[:, 2, 3]
     return float(weights @ heights)
 
 
 def step_one(
     model: Model, seed: int, loop_start: Array | None = None, deadline: float = float("inf")
-) -> tuple[Problem, list[Array]]:
+) -> tuple[Problem, Iterator[Array]]:
     """Step 1's problem (the DoFs that are not pinned, parts sharing a primitive
     kept apart) and its starts over those DoFs: the spread-out defaults (with
-    loops: closed), then seeded random points (with loops: those that close)."""
-    rng = np.random.default_rng(seed)
+    loops: closed), then seeded random points (with loops: those that close).
+    The starts are made as they are asked for: closing a random start's loops
+    costs as much as a short fit, and a fit that succeeds needs no more starts."""
     x0 = model.x_default()
     spacing = spacing_constraints(model, spread(spacing_constraints(model, x0), x0))
     x0 = spread(spacing, x0)
-    starts = [_first_start(model, x0, spacing, loop_start, seed, deadline) if model.closures else x0]
+    free = np.array([i for i in range(len(model.variables)) if i not in model.pinned], dtype=int)
+
+    def starts() -> Iterator[Array]:
+        yield _first_start(model, x0, spacing, loop_start, seed, deadline) if model.closures else x0
+        yield from _random_starts(model, x0, seed, deadline)
+
+    return Problem(model, free, x0.copy(), spacing, deadline), _distinct(starts(), free)
+
+
+def _random_starts(model: Model, x0: Array, seed: int, deadline: float) -> Iterator[Array]:
+    """EXTRA_STARTS seeded random points in the DoFs' ranges (pinned DoFs kept);
+    with loops, those whose loops close within RANDOM_CLOSE_EVALUATIONS, closed."""
+    rng = np.random.default_rng(seed)
     low, high = model.bounds()
-    # with loops every start is closed first and fitted under constraints: fewer, dearer starts
-    for _ in range(EXTRA_STARTS if not model.closures else 1):
+    for _ in range(EXTRA_STARTS):
         random = rng.uniform(np.where(np.isfinite(low), low, 0.0), np.where(np.isfinite(high), high, 360.0))
         random[list(model.pinned)] = x0[list(model.pinned)]
         if model.closures:
@@ -343,9 +411,7 @@ def step_one(
             if not closing.closed:
                 continue  # fitting from an open start would close its loops all over again
             random = closing.x
-        starts.append(random)
-    free = np.array([i for i in range(len(model.variables)) if i not in model.pinned], dtype=int)
-    return Problem(model, free, x0.copy(), spacing, deadline), _distinct([s[free] for s in starts])
+        yield random
 
 
 def _first_start(
@@ -371,14 +437,16 @@ def _first_start(
     return close_loops(model, seed, x0=x0, deadline=deadline).x
 
 
-def _distinct(starts: list[Array]) -> list[Array]:
-    """The starts without repeats: closing the loops from a random point often
-    lands on a configuration already tried, and fitting it again gains nothing."""
+def _distinct(starts: Iterable[Array], free: Array) -> Iterator[Array]:
+    """The starts over the free DoFs without repeats: closing the loops from a
+    random point often lands on a configuration already tried, and fitting it
+    again gains nothing."""
     kept: list[Array] = []
     for start in starts:
-        if all(np.abs(start - other).max() > 1e-6 for other in kept):
-            kept.append(start)
-    return kept
+        v = start[free]
+        if all(np.abs(v - other).max() > 1e-6 for other in kept):
+            kept.append(v)
+            yield v
 
 
 def _settle_stably(
@@ -469,14 +537,7 @@ def _verify(
     weight = _weight(masses)
     per_mm = problem.scale
     gradient = energy(x)[1][free] / per_mm / weight
-    low, high = model.bounds()
-    span = np.where(np.isfinite(high - low), high - low, 1.0)
-    resting = {}
-    for k, i in enumerate(free):
-        if np.isfinite(low[i]) and x[i] - low[i] <= BOUND_TOLERANCE * span[i]:
-            resting[k] = "min"
-        elif np.isfinite(high[i]) and high[i] - x[i] <= BOUND_TOLERANCE * span[i]:
-            resting[k] = "max"
+    resting = _resting_ends(problem, x)
     rows = []
     if model.closures:
         rows.append(problem.closure_jacobian(x[free]))
@@ -506,9 +567,23 @@ def _verify(
     return stationarity, at_bound, tuple(falls)
 
 
+def _resting_ends(problem: Problem, x: Array) -> dict[int, str]:
+    """The problem's free DoFs (by position in `free`) resting on an end of
+    their range: "min" or "max"."""
+    low, high = problem.model.bounds()
+    span = np.where(np.isfinite(high - low), high - low, 1.0)
+    resting = {}
+    for k, i in enumerate(problem.free):
+        if np.isfinite(low[i]) and x[i] - low[i] <= BOUND_TOLERANCE * span[i]:
+            resting[k] = "min"
+        elif np.isfinite(high[i]) and high[i] - x[i] <= BOUND_TOLERANCE * span[i]:
+            resting[k] = "max"
+    return resting
+
+
 def _weight(masses: Array) -> float:
     """The assembly's weight in joules per mm of height (masses in grams)."""
-    return max(float(masses.sum()) / 1000.0 * 9.81 / 1000.0, 1e-12)
+    return max(float(weight_newtons(masses).sum()) / 1000.0, 1e-12)
 
 
 def _falling_part(model: Model, joint: Joint, side: str) -> str:

@@ -115,7 +115,9 @@ def test_the_same_seed_gives_the_same_answer() -> None:
 
 def test_a_fall_from_the_first_start_is_retried_from_the_next_seeds(monkeypatch) -> None:  # type: ignore[no-untyped-def]
     """The policy of fabhal.solve.solve, with the attempts stubbed: seed 0 falls,
-    seed 1 holds -> the seed-1 result with an N504 note at the failing connection."""
+    seed 1 holds but is not at rest, seed 2 holds at rest -> every retry is made
+    and the seed-2 result is the answer (`_rank`: at rest first), with an N504
+    note at the failing connection."""
     import dataclasses
 
     import fabhal.solve as solver
@@ -129,13 +131,15 @@ def test_a_fall_from_the_first_start_is_retried_from_the_next_seeds(monkeypatch)
         seeds.append(options.seed)
         if options.seed == 0:
             return dataclasses.replace(real, status="falls_apart", falls=(fall,))
+        if options.seed == 1:
+            return dataclasses.replace(real, status="not_at_rest", equilibrium=0.05)
         return real
 
     monkeypatch.setattr(solver, "_solve_once", attempt)
     result = solver.solve(real.model, solver.SolveOptions(seed=0))
-    assert seeds == [0, 1] and result.status == "solved"
+    assert seeds == [0, 1, 2] and result.status == "solved"
     (note,) = [d for d in result.diagnostics if d.code == "N504"]
-    assert "seed 1" in note.message and note.span == real.model.joints[0].connection.span
+    assert "seed 2" in note.message and note.span == real.model.joints[0].connection.span
 
 
 def test_a_design_that_falls_from_every_start_falls_apart(monkeypatch) -> None:  # type: ignore[no-untyped-def]

@@ -48,9 +48,21 @@ def test_a_reachable_request_gets_no_warning() -> None:
     assert reach_warnings(REPO / "programs" / "mug_hanger.fhl") == []
 
 
-def test_a_rotation_the_holder_cannot_give_is_named() -> None:
-    """The toothbrush stands in a clip that sets its tilt: the fit reaches the
-    position (1 mm) but stays about 41 degrees from the requested rotation."""
-    (problem,) = reach_warnings(REPO / "programs" / "toothbrush_holder.fhl")
+STANDING = """\
+environment counter = Surface(width: 400, length: 400) at (0, 0, 0)
+soap = SoapBottle()
+connect soap.surface -- counter
+target soap.rod at (0, 0, 71) rot (40, 0, 0)
+"""
+
+
+def test_a_rotation_the_holder_cannot_give_is_named(tmp_path: Path) -> None:
+    """A bottle standing on a counter stands upright (surface on surface: only
+    its turn about the vertical is free); its body's axis is asked to lean 40
+    degrees. The position asked (its body's centre, 71 mm above the counter) is
+    where it stands, so only the rotation is out of reach: 40 degrees."""
+    (tmp_path / "standing.fhl").write_text(STANDING)
+    (problem,) = reach_warnings(tmp_path / "standing.fhl")
     assert "requested rotation is out of reach" in problem.message
-    assert "within 1 mm of the requested position" in problem.help or "within 0 mm" in problem.help
+    assert "at best the target is 0 mm and 40 degrees" in problem.message
+    assert "within 0 mm of the requested position" in problem.help

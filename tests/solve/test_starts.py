@@ -13,10 +13,11 @@ from tests.conftest import REPO
 
 
 def test_starts_that_rest_apart_are_reported_with_the_rule_applied() -> None:
-    """Clip light L: no start fits within 0.5 mm (the fit ends 28 mm off at best),
-    the two best rest more than 5 mm apart; the reported one hangs nearer the
-    request than the other, as the rule says."""
-    result = api.solve(REPO / "programs" / "clip_light_l.fhl")
+    """The one-eye-hook soap basket: no start fits within 0.5 mm (its basket hangs
+    tilted, so the bottle cannot reach its upright request), the two best rest
+    more than 5 degrees apart; the reported one hangs nearer the request than the
+    other, as the rule says."""
+    result = api.solve(REPO / "programs" / "soap_bottle_one_eyehook.fhl")
     (note,) = [d for d in result.diagnostics if d.code == "N505"]
     near, near_deg, far, far_deg = map(
         float,
