@@ -204,3 +204,78 @@ def test_of_equally_low_configurations_the_one_nearest_the_request_is_kept(
     assert turned.energy == pytest.approx(loose.energy, abs=1e-6)
     assert turned.target_errors()[1] < loose.target_errors()[1] - 10.0  # degrees
     assert turned.equilibrium is not None and turned.equilibrium < 1e-3
+
+
+@pytest.mark.parametrize(("tilt", "holds"), [(16.5, True), (16.9, False)])
+def test_friction_on_an_open_rod_holds_up_to_the_friction_angle(tmp_path: Path, tilt: float, holds: bool) -> None:
+    """An S-hook alone on a 500 mm open rod sloping `tilt` degrees. The rod
+    carries the hook's weight W: normal force W cos(tilt), pull along the rod
+    W sin(tilt). Coulomb friction holds while tan(tilt) <= mu = 0.3, i.e. up to
+    atan 0.3 = 16.70 degrees. At 16.5 (tan = 0.296, r = tan/mu = 0.987) the
+    friction, smoothed over 0.5 mm, lets it creep 0.5 r / sqrt(1 - r^2) = 3.1 mm;
+    at 16.9 (tan = 0.304) nothing stops it before the open end: it falls off.
+    Tolerance 5 mm on the creep: ~2 mm above the smoothed-friction value."""
+    program = tmp_path / "tilted.fhl"
+    program.write_text(S_HOOK_ON_ROD.format(length=500, extra="", roll=90 + tilt))
+    fitted = api.solve(program, gravity=False).solution
+    result = api.solve(program)
+    assert fitted is not None and result.solution is not None
+    if holds:
+        assert result.status == "solved"
+        t = next(i for i, v in enumerate(fitted.model.variables) if v.name == "rod.rod.t")
+        assert abs(result.solution.x[t] - fitted.x[t]) * 500 < 5.0  # mm of creep
+    else:
+        assert result.status == "falls_apart"
+        assert [d.code for d in result.diagnostics if d.severity == "error"] == ["E501"]
+
+
+def test_on_a_closed_rod_past_the_friction_angle_the_hook_slides_to_the_end_and_stops(tmp_path: Path) -> None:
+    """At 25 degrees tan 25 = 0.47 > 0.3: the hook slides the whole way down a
+    300 mm rod, and the closed end holds it (its normal force takes the pull
+    W sin 25 along the rod): solved, resting at the lower end, moved more than
+    90 mm from wherever step 1 placed it (the end is 150 mm from the middle)."""
+    placed, settled, at_end = _slide_on_closed_rod(tmp_path, 25.0)
+    assert at_end and settled in (0.0, 1.0) and abs(settled - placed) * 300 > 90.0
+
+
+def test_the_order_of_the_lines_does_not_change_the_answer(tmp_path: Path) -> None:
+    """The soap bottle holder on a door rod tilted 12 degrees, its connections
+    written in three orders. The same design is the same mechanism, so the same
+    settled pose: the target frames agree to 1e-6 mm (the solve is deterministic
+    once the unknowns are ordered by what they join; anything above rounding
+    would mean the text order leaks into the model)."""
+    source = (REPO / "programs" / "soap_bottle_holder.fhl").read_text()
+    source = source.replace('import "lib/', f'import "{REPO / "programs" / "lib"}/')
+    source = source.replace("rot (90, 0, 90)", "rot (102, 0, 90)")
+    assert "rot (102, 0, 90)" in source  # the door rod is tilted
+    lines = source.splitlines()
+    connections = [line for line in lines if line.startswith("connect")]
+    rest = [line for line in lines if not line.startswith("connect")]
+    assert len(connections) == 5
+    orders = [connections, connections[::-1], connections[2:4] + connections[:2] + connections[4:]]
+    frames = []
+    for k, order in enumerate(orders):
+        program = tmp_path / f"order{k}.fhl"
+        program.write_text("\n".join(rest + order) + "\n")
+        result = api.solve(program)
+        assert result.status == "solved" and result.solution is not None, result.diagnostics
+        frames.append(result.solution.target_frame())
+    for frame in frames[1:]:
+        assert np.abs(frame - frames[0]).max() < 1e-6
+
+
+def test_a_result_out_of_balance_is_never_solved(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """With the equilibrium tolerance cut to 1e-30 of the weight (below what any
+    float settle reaches) the mug hanger's answer is not at rest: status
+    not_at_rest, error E503 naming the unbalanced share, and `fabhal solve`
+    exits 1."""
+    monkeypatch.setattr(solve_module, "EQUILIBRIUM_TOLERANCE", 1e-30)
+    program = REPO / "programs" / "mug_hanger.fhl"
+    result = api.solve(program)
+    assert result.status == "not_at_rest"
+    (e503,) = [d for d in result.diagnostics if d.code == "E503"]
+    assert e503.severity == "error" and "still unbalanced" in e503.message
+
+    from fabhal.cli import main
+
+    assert main(["solve", str(program)]) == 1
