@@ -207,7 +207,9 @@ def test_of_equally_low_configurations_the_one_nearest_the_request_is_kept(
 
 
 @pytest.mark.parametrize(("tilt", "holds"), [(16.5, True), (16.9, False)])
-def test_friction_on_an_open_rod_holds_up_to_the_friction_angle(tmp_path: Path, tilt: float, holds: bool) -> None:
+def test_friction_on_an_open_rod_holds_up_to_the_friction_angle(
+    tmp_path: Path, tilt: float, holds: bool
+) -> None:
     """An S-hook alone on a 500 mm open rod sloping `tilt` degrees. The rod
     carries the hook's weight W: normal force W cos(tilt), pull along the rod
     W sin(tilt). Coulomb friction holds while tan(tilt) <= mu = 0.3, i.e. up to
