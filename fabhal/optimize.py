@@ -52,6 +52,7 @@ RESTORED = 1e-10  # largest |c| accepted as on the constraints (the caller's uni
 # a scaled variable this close to a bound, or a spacing this close to 0, is on it: a
 # nanometre (scaled variables are millimetres); closer, a step would stall on it
 ACTIVE = 1e-6
+MODEL_REPAIRS = 40  # Newton: damping 1e-6 x 10^40 is far past any curvature
 RANK = 1e-9  # singular values below this fraction of the largest span no direction
 # A step or decrease test ends a least-squares search only while the model is
 # trusted this much (Levenberg-Marquardt damping at most this multiple of the
@@ -210,6 +211,8 @@ def minimize(
     while iterations < max_iterations:
         iterations += 1
         step, stationarity = state.step(u, gradient, hessian, a, c)
+        if not np.isfinite(stationarity):
+            break
         tiny = float(np.abs(step).max(initial=0.0)) <= xtol and state.trusted()
         if stationarity <= gtol or value <= stop_below or tiny:
             break
@@ -293,13 +296,23 @@ class _Iteration:
     def step(
         self, u: Array, gradient: Array, hessian: Array | None, a: Array, c: Array
     ) -> tuple[Array, float]:
-        """The step of the quadratic model on the active set; the projected gradient."""
-        while True:
+        """The step of the quadratic model on the active set; the projected gradient.
+        A model not convex on the tangent space is damped more (Newton) or, for
+        BFGS (where rounding can leave a quasi-Newton update slightly
+        indefinite), mirrored and floored, then started again; a model that no
+        repair makes convex gives no step (stationarity inf: the search ends)."""
+        for repair in range(MODEL_REPAIRS):
             self.hessian = self._model_hessian(gradient, hessian)
             found = self._active_step(u, gradient, a, c)
             if found is not None:
                 return found
-            self.damping = max(self.damping, 1e-6) * 10.0  # not convex on the tangent space: damp more
+            if not self.bfgs:
+                self.damping = max(self.damping, 1e-6) * 10.0
+            elif repair == 0:
+                self.start_from(self.model)
+            else:
+                self.model = None
+        return np.zeros(len(u)), np.inf
 
     def _active_step(self, u: Array, gradient: Array, a: Array, c: Array) -> tuple[Array, float] | None:
         problem = self.problem
