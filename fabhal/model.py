@@ -474,7 +474,9 @@ def build_model(program: FlatProgram) -> Model:
         held = connection.fixed or _holds_by_itself(a.primitive.kind, b.primitive.kind)
         joints.append(Joint(j, a, b, offset, connection, held))
     tree, closures, unplaced = _spanning_tree(program, joints)
-    pinned = frozenset(i for joint in joints for i in _resting_surface(joint))
+    pinned = frozenset(
+        i for joint in joints for i in (*_resting_surface(joint), *_fixed_rod_line(joint, program.parts))
+    )
     return Model(program, program.parts, tuple(joints), tree, closures, tuple(variables), unplaced, pinned)
 
 
@@ -494,6 +496,19 @@ def _holds_by_itself(first: str, second: str) -> bool:
     a bottle would skate across its basket's floor and tip the basket)."""
     kinds = {first, second}
     return "clip" in kinds or kinds in ({"surface"}, {"surface", "hemisphere"})
+
+
+def _fixed_rod_line(joint: Joint, parts: tuple[PartInstance, ...]) -> tuple[int, ...]:
+    """The spin of a rod that belongs to an environment: the contact stays on the
+    line of the rod that its frame puts on top. A part's rod turns in what holds
+    it (a basket's handle in a hook), but a fixed rod cannot turn, and letting the
+    contact wander round it only gives step 1 a valley under the rod to fall into;
+    whatever hangs from one point rests on the top line anyway."""
+    return tuple(
+        side.dof_indices[2]
+        for side in (joint.a, joint.b)
+        if parts[side.part].environment and side.primitive.variant == "Rod"
+    )
 
 
 def _resting_surface(joint: Joint) -> tuple[int, ...]:

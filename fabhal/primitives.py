@@ -272,7 +272,10 @@ def dofs_of(variant: str, params: Mapping[str, float], flags: Mapping[str, bool]
     slides_off = flags.get("slide_off", True)
     flex_phi = Dof("phi", 45.0, 135.0, 90.0)
     table: dict[str, Callable[[], tuple[Dof, ...]]] = {
-        "Rod": lambda: (_slide("t", slides_off), flex_phi),
+        # spin: the rod turns in what holds it (a handle in a hook); the reference
+        # welds the contact to one line of the rod, so a basket pivoted about its
+        # hook's arc centre instead of its handle
+        "Rod": lambda: (_slide("t", slides_off), flex_phi, _spin("spin")),
         # what is threaded on a centre line may also turn about it (the reference has no such DoF)
         "RodCtl": lambda: (_slide("t", slides_off), _spin("spin")),
         "Tube": lambda: (_slide("t", slides_off), _spin("theta", 180.0)),
@@ -298,12 +301,16 @@ FrameFormula = Callable[[Mapping[str, float | Array], Array], Array]
 
 
 def _rod(p: Mapping[str, float | Array], x: Array) -> Array:
-    # T(0, r, (t - 0.5) L) @ Rx(phi - 180), written out (hot in the solver, as `_arc`)
+    # Rz(spin) @ T(0, r, (t - 0.5) L) @ Rx(phi - 180), written out (hot in the
+    # solver, as `_arc`); spin 0 when not given (the reference's two DoFs)
     phi = np.radians(x[..., 1])
     c, s = -np.cos(phi), -np.sin(phi)  # of phi - 180
+    spin = np.radians(x[..., 2]) if x.shape[-1] > 2 else np.zeros(phi.shape)
+    cz, sz = np.cos(spin), np.sin(spin)
     out = np.zeros((*phi.shape, 4, 4))
-    out[..., 0, 0] = out[..., 3, 3] = 1.0
-    out[..., 1, 1], out[..., 1, 2], out[..., 1, 3] = c, -s, p["radius"]
+    out[..., 3, 3] = 1.0
+    out[..., 0, 0], out[..., 0, 1], out[..., 0, 2], out[..., 0, 3] = cz, -sz * c, sz * s, -sz * p["radius"]
+    out[..., 1, 0], out[..., 1, 1], out[..., 1, 2], out[..., 1, 3] = sz, cz * c, -cz * s, cz * p["radius"]
     out[..., 2, 1], out[..., 2, 2], out[..., 2, 3] = s, c, (x[..., 0] - 0.5) * p["length"]
     return out
 

@@ -229,7 +229,10 @@ def close_loops(
     if not model.closures:
         return LoopReport(x0, True, 0.0, 0.0, 0)
     free = np.array(
-        sorted({i for loop in find_loops(model) for j in loop.joints for i in _dof_indices(model, j)})
+        sorted(
+            {i for loop in find_loops(model) for j in loop.joints for i in _dof_indices(model, j)}
+            - model.pinned
+        )
     )
     low, high = model.bounds()
     rng = np.random.default_rng(seed)

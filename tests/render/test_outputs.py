@@ -195,8 +195,10 @@ def test_html_viewer_names_each_value_by_its_part_and_primitive(
     _render(mug, path)
     dom = _dump_dom(chromium, path, tmp_path / "profile")
     lines = re.findall(r'<div class="dofs">([^<]*)</div>', dom)
-    # the rod's side: its slide as a fraction of its length and its tilt in degrees
-    assert any(re.fullmatch(r"rod: t 0\.\d{3} along, phi \d+\.\d°", line) for line in lines), lines
+    # the rod's side: its slide as a fraction of its length, its tilt and its spin in degrees
+    assert any(re.fullmatch(r"rod: t 0\.\d{3} along, phi \d+\.\d°, spin \d+\.\d°", line) for line in lines), (
+        lines
+    )
     for line in lines:
         owner, _, values = line.partition(": ")
         assert owner in {"rod", "chain.s[1].hook2", "chain.s[1].hook1", "chain.s[2].hook2"} | {

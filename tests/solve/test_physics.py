@@ -195,14 +195,14 @@ def test_of_equally_low_configurations_the_one_nearest_the_request_is_kept(
     wherever the solver's path left it; with it, it turns back towards the
     request at the same energy (1e-6 J: the settles stop at 1e-4 of the weight
     per mm) and stays at rest."""
-    program = REPO / "programs" / "clip_light_l.fhl"  # loose: 21.7 degrees off; turned: 7.8
+    program = REPO / "programs" / "clip_light_xs.fhl"  # loose: 12.6 degrees off; turned: 9.9
     monkeypatch.setattr(solve_module, "TARGET_PULL", 0.0)
     loose = api.solve(program).solution
     monkeypatch.undo()
     turned = api.solve(program).solution
     assert loose is not None and turned is not None
     assert turned.energy == pytest.approx(loose.energy, abs=1e-6)
-    assert turned.target_errors()[1] < loose.target_errors()[1] - 10.0  # degrees
+    assert turned.target_errors()[1] < loose.target_errors()[1] - 2.0  # degrees
     assert turned.equilibrium is not None and turned.equilibrium < 1e-3
 
 
@@ -281,3 +281,114 @@ def test_a_result_out_of_balance_is_never_solved(tmp_path: Path, monkeypatch: py
     from fabhal.cli import main
 
     assert main(["solve", str(program)]) == 1
+
+
+def _basket_tilt(solution: Solution) -> float:
+    """Degrees between the basket's up axis and the vertical."""
+    up = solution.frames[solution.model.part_index("basket")][:3, 2]
+    return float(np.degrees(np.arccos(np.clip(up[2], -1.0, 1.0))))
+
+
+def test_a_basket_on_one_handle_tilts_until_its_centre_of_mass_is_below_the_handle(tmp_path: Path) -> None:
+    """The Basket's handle rod1 runs at x = 124.5, z = 252 of its frame; its centre
+    of mass is at (0, 0, 100.5), 151.5 below the handle. Hung by that handle in a
+    ceiling hook, it turns about the handle (the rod turns in the hook) until
+    the centre of mass is straight below the handle's axis:
+    tilt = atan(124.5 / 151.5) = 39.41 degrees. (Pivoting about the hook's arc
+    centre instead, as when the handle was welded to the hook, gave 36-38.)
+    Tolerance 0.01 degrees: the settle stops at 1e-4 of the weight."""
+    result = solve_text(
+        tmp_path,
+        """\
+environment ceiling = CeilingHook() at (0, 0, 1000)
+basket = Basket()
+connect basket.rod1 -- ceiling.hook
+target basket.surface at (0, 0, 700)
+""",
+    )
+    assert result.solution is not None and result.solution.equilibrium is not None
+    assert _basket_tilt(result.solution) == pytest.approx(np.degrees(np.arctan(124.5 / 151.5)), abs=0.01)
+
+
+@pytest.mark.parametrize(
+    ("hook1", "hook2", "tilt"),
+    [
+        # level hooks 249 mm apart, under handles 249 mm apart: level
+        ("(124.5, 0, 1000)", "(-124.5, 0, 1000)", 0.0),
+        # one hook 30 mm higher: the handle axes 30 mm apart in height, 249 along the
+        # basket: asin(30 / 249) = 6.92 degrees
+        ("(124.5, 0, 1030)", "(-124.5, 0, 1000)", 6.9199),
+        # the same tilt with the hooks written to three decimals: x = 249 cos(6.92) / 2
+        # = 123.59290 written 123.593, the hooks 248.99977 mm apart (0.2 um short)
+        ("(123.593, 0, 1015)", "(-123.593, 0, 985)", 6.9199),
+        # hooks 240 mm apart under handles 249 apart: each handle rides 4.5 mm up
+        # its hook's arc, symmetrically: level
+        ("(120, 0, 1000)", "(-120, 0, 1000)", 0.0),
+    ],
+)
+def test_a_basket_in_two_hooks_hangs_by_the_height_of_its_hooks(
+    tmp_path: Path, hook1: str, hook2: str, tilt: float
+) -> None:
+    """The Basket hung by its two side handles (249 mm apart) in two ceiling
+    hooks, the second turned to face the first. Its handles turn in the hooks,
+    so the loop closes whatever the hooks' exact spacing and the basket's tilt
+    follows from the hooks' heights alone. The request is where a builder
+    expects it: the floor 327 mm below the hooks' mean height, at the tilt of
+    the hand calculation (with hooks 250.8 mm apart the settle must find that
+    tilt itself; the settle moves a request that is not at rest). A request
+    far from that can make step 1 lift the basket so that the handles ride
+    opposite ways up the arcs: the crossed branch of this four-bar linkage
+    (hooks, handles, basket), a stable state 0.07 J higher that a builder would
+    not set up; choosing among such states by where the hack hangs is the
+    aiming issue's (15). Tolerance 0.01 degrees (0.04 mm over
+    the basket: where the handles ride the arcs their height changes by the
+    square of the ride over the arc's diameter, ~0.02 mm)."""
+    surface_z = (float(hook1.split(",")[2].rstrip(")")) + float(hook2.split(",")[2].rstrip(")"))) / 2 - 327
+    result = solve_text(
+        tmp_path,
+        f"""\
+environment h1 = CeilingHook() at {hook1}
+environment h2 = CeilingHook() at {hook2} rot (0, 0, 180)
+basket = Basket()
+connect basket.rod1 -- h1.hook
+connect basket.rod2 -- h2.hook
+target basket.surface at (0, 0, {surface_z}) rot (0, {-tilt}, 0)
+""",
+    )
+    assert result.status == "solved", result.diagnostics
+    assert result.solution is not None
+    assert _basket_tilt(result.solution) == pytest.approx(tilt, abs=0.01)
+
+
+def test_five_s_hooks_hang_in_one_vertical_line(tmp_path: Path) -> None:
+    """A chain of five S-hooks from a level rod, nothing at its end: each hook
+    hangs from the one above at a single point, so every centre of mass is
+    straight below the rod's contact (a plumb line). Tolerance 0.5 mm
+    horizontally: the settle stops at 1e-4 of the weight per mm of motion."""
+    chain = "\n".join(f"s{k} = DoubleHook()" for k in range(1, 6))
+    links = "\n".join(f"connect s{k}.hook1 -- s{k + 1}.hook2" for k in range(1, 5))
+    result = solve_text(
+        tmp_path,
+        f"""\
+environment rod = Rod(length: 500, radius: 2) at (0, 0, 600) rot (90, 0, 90)
+{chain}
+connect s1.hook2 -- rod
+{links}
+target s5.hook1 at (0, 0, 300)
+""",
+    )
+    solution = result.solution
+    assert result.status == "solved" and solution is not None
+    from fabhal.meshes import mass_properties
+
+    centre = np.array(
+        mass_properties(solution.model.parts[solution.model.part_index("s1")].spec).center_of_mass
+    )
+    points = np.array(
+        [
+            (solution.frames[solution.model.part_index(f"s{k}")] @ np.append(centre, 1.0))[:3]
+            for k in range(1, 6)
+        ]
+    )
+    contact = connector_world(solution, 0, "b")[:3, 3]
+    assert np.abs(points[:, :2] - contact[:2]).max() < 0.5

@@ -26,11 +26,12 @@ from fabhal.solve import target as target_mod
 from fabhal.solve.steps import FIT_EVALUATIONS, GOOD_FIT, fit_target
 from tests.conftest import REPO
 
-# clip light S, seed 0: from each of the four starts our Gauss-Newton path ends in a
-# valley 66-111 mm from the target where scipy's trust region, from one of them,
-# reaches 1.3 mm. A known weakness of the blind fit (the aiming issue replaces it
-# with a fit of where the hack hangs); strict, so the day it passes is noticed.
-VALLEY_MISSED = {"clip_light_s"}
+# clip light L, seed 0: our Gauss-Newton fit stalls (under GOOD_FIT of progress in
+# FIT_STALL_STEPS steps) 1.9 mm from the target where scipy's trust region reaches it
+# exactly, since the hanger's bar may turn in the clip (issue 14's rod spin). A known
+# weakness of the blind fit (the aiming issue replaces it with a fit of where the hack
+# hangs); strict, so the day it passes is noticed.
+VALLEY_MISSED = {"clip_light_l"}
 NO_LOOPS = [
     pytest.param(
         p,
