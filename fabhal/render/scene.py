@@ -95,7 +95,7 @@ def build_scene(solution: Solution, title: str, options: RenderOptions) -> Scene
         solution.status,
         solution.goal.requested,
         solution.target_frame(),
-        tuple(hanging_lines(model)),
+        tuple(hanging_lines(model, solution.forces)),
     )
 
 

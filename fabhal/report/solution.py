@@ -94,9 +94,16 @@ def _solution(solution: Solution) -> dict[str, Any]:
                 dofs[name] = round(_within_range(dof, float(solution.x[i])), 6) + 0.0
                 if i in resting:
                     at_bound.append(name)
-        connections.append(
-            {"a": str(joint.connection.a), "b": str(joint.connection.b), "dofs": dofs, "at_bound": at_bound}
-        )
+        connection: dict[str, Any] = {
+            "a": str(joint.connection.a),
+            "b": str(joint.connection.b),
+            "dofs": dofs,
+            "at_bound": at_bound,
+        }
+        if solution.forces is not None:  # N, what a exerts on b (world axes), and its size
+            connection["force_n"] = _numbers(solution.forces[joint.index])
+            connection["carries_n"] = round(float(np.linalg.norm(solution.forces[joint.index])), 4)
+        connections.append(connection)
     return {
         "target": target,
         "parts": parts,
@@ -158,20 +165,26 @@ def renderables(result: SolveOutcome, program: str) -> list[RenderableType]:
         frame = _frame(solution.frames[i])
         mass = "fixed" if part.environment else f"{solution.masses[i]:.1f} g"
         table.add_row(part.name, part.type_name, _triple(frame["pos"]), _triple(frame["rot"]), mass)
-    chain = Text("how it hangs (each line: a part and what holds it)\n", style="bold")
-    for depth, line in hanging_lines(solution.model):
+    what = "a part, what holds it" + (" and the force between them" if solution.forces is not None else "")
+    chain = Text(f"how it hangs (each line: {what})\n", style="bold")
+    for depth, line in hanging_lines(solution.model, solution.forces):
         chain.append("  " * (depth + 1) + line + "\n")
     return [head, table, chain]
 
 
-def hanging_lines(model: Model) -> list[tuple[int, str]]:
+def hanging_lines(model: Model, forces: np.ndarray | None = None) -> list[tuple[int, str]]:
     """The connection tree depth first, as (depth, text) lines: each part under
-    what holds it; then the connections that close loops (depth 0)."""
+    what holds it; then the connections that close loops (depth 0). With
+    `forces` ((J, 3) N per connection), each line says what its connection carries."""
+
+    def carried(joint: int) -> str:
+        return "" if forces is None else f"  ({float(np.linalg.norm(forces[joint])):.2f} N)"
+
     below: dict[int, list[tuple[int, str]]] = {}  # part -> (child part, line), in program order
     for edge in model.tree:
         joint = model.joints[edge.joint]
         parent, child = model.placed_sides(edge)
-        line = f"{joint.endpoint(child)}  <-  {joint.endpoint(parent)}"
+        line = f"{joint.endpoint(child)}  <-  {joint.endpoint(parent)}{carried(edge.joint)}"
         below.setdefault(parent.part, []).append((child.part, line))
     lines: list[tuple[int, str]] = []
 
@@ -185,7 +198,7 @@ def hanging_lines(model: Model) -> list[tuple[int, str]]:
             visit(i, 0)
     for j in model.closures:
         connection = model.joints[j].connection
-        lines.append((0, f"{connection.a}  ==  {connection.b}  (closes a loop)"))
+        lines.append((0, f"{connection.a}  ==  {connection.b}  (closes a loop){carried(j)}"))
     return lines
 
 

@@ -112,6 +112,8 @@ class Solution:
     at_bound: tuple[int, ...]  # DoFs resting on an end of their range
     falls: tuple[Fall, ...]
     diagnostics: tuple[Diagnostic, ...]
+    # (J, 3) N that each connection's a side exerts on its b side, world axes; None without gravity
+    forces: Array | None = None
 
     def target_frame(self) -> Array:
         return target_mod.achieved(self.goal, self.frames)
@@ -224,7 +226,18 @@ def _solve_once(model: Model, options: SolveOptions, loop_start: Array | None) -
         settled.at_bound,
         settled.falls,
         tuple(diagnostics),
+        _carried(model, x, masses, centres, settled.at_bound) if options.gravity else None,
     )
+
+
+def _carried(model: Model, x: Array, masses: Array, centres: Array, at_bound: tuple[int, ...]) -> Array:
+    """(J, 3) N: each connection's force where the hack came to rest. Load along
+    a motion is carried where that motion is held (a grip, `fixed`, a pinned
+    DoF), rests on an end of its range, or is a slide friction holds; every
+    other motion is free."""
+    held = {i for joint in model.joints if joint.held for i in joint.a.dof_indices + joint.b.dof_indices}
+    carrying = held | set(model.pinned) | set(at_bound) | set(friction_slides(model))
+    return connection_wrenches(model, x, masses, centres, carrying).forces
 
 
 @dataclass(frozen=True)

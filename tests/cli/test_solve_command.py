@@ -41,13 +41,33 @@ def test_json_result_of_a_gallery_program(tmp_path: Path) -> None:
     (on_rod,) = [c for c in data["connections"] if c["b"] == "rod"]
     assert on_rod["a"] == "chain.s[1].hook2" and "rod.t" in on_rod["dofs"]
     assert set(data["timing"]) == {"parse_s", "check_s", "solve_s"}
+    _each_link_carries_what_hangs_below_it(data)
+
+
+def _each_link_carries_what_hangs_below_it(data: dict) -> None:
+    """The mug hanger is one chain: rod <- s[1] <- s[2] <- s3 <- mug. At rest each
+    connection carries the weight of everything below it, straight down:
+    rod: (10.8 x 3 + 350) g x 9.81 = 3.753 N; s[1]-s[2]: 3.647; s[2]-s3: 3.540;
+    s3-mug: 350 g x 9.81 = 3.434 N. Tolerance 0.005 N: the JSON keeps 4 decimals
+    and the settle stops at 1e-4 of the weight."""
+    masses = {name: part["mass_g"] for name, part in data["parts"].items()}
+    below = {
+        "rod": ["chain.s[1]", "chain.s[2]", "s3", "mug"],
+        "chain.s[1].hook1": ["chain.s[2]", "s3", "mug"],
+    }
+    below |= {"chain.s[2].hook1": ["s3", "mug"], "s3.hook2": ["mug"]}
+    for connection in data["connections"]:
+        key = next(end for end in (connection["a"], connection["b"]) if end in below)
+        expected = sum(masses[name] for name in below[key]) / 1000 * 9.81
+        assert abs(connection["carries_n"] - expected) < 0.005, (key, connection)
+        assert abs(abs(connection["force_n"][2]) - expected) < 0.005  # vertical
 
 
 def test_human_summary() -> None:
     run = fabhal("solve", "programs/mug_hanger.fhl")
     assert run.returncode == 0
     assert "programs/mug_hanger.fhl: solved" in run.stdout
-    assert "chain.s[1].hook2  <-  rod" in run.stdout
+    assert "chain.s[1].hook2  <-  rod  (3.75 N)" in run.stdout  # the whole weight, see above
 
 
 def test_a_hack_that_falls_apart_exits_one(tmp_path: Path) -> None:
