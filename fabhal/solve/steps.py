@@ -50,6 +50,9 @@ FIT_FTOL = 1e-8  # relative decrease of the target cost that ends a fit
 # a start whose target residual (mm, and degrees counted as mm) is this close needs no other start
 GOOD_FIT = 0.5
 RUNNER_UP_MM = 100.0  # see _worth_settling
+# probes finished at most, best first: the answer and its runner-up; a third
+# rarely wins and costs a whole fit (an unreachable target stalls from every start)
+FINISHED_FITS = 2
 FIT_STALL_STEPS = 15  # see _fit_stalled
 # no DoF moves its connection more than this in one step (mm; degrees count as mm):
 # longer steps from a nearly singular model took up to 18 halvings each
@@ -186,8 +189,9 @@ def fit_target(
     """Best free DoFs over the starts (taken from `starts` only as needed).
 
     Every start is fitted for FIT_PROBE_EVALUATIONS first, then the most
-    promising ones to FIT_EVALUATIONS, best first, until one fits (GOOD_FIT) or
-    the rest end too far from the target to be worth it (`_worth_settling`): a
+    promising ones (FINISHED_FITS at most) to FIT_EVALUATIONS, best first, until
+    one fits (GOOD_FIT) or the rest end too far from the target to be worth it
+    (`_worth_settling`): a
     chain that cannot reach its target converges slowly from every start. A
     start whose probe fits ends the search; it is still finished (polished to
     convergence). Where none fits, the runner-up is the next best finished fit."""
@@ -227,7 +231,9 @@ def fit_target(
     # ranks the starts only roughly (clip light S: the third-ranked probe fits)
     finished: list[tuple[float, Array]] = []
     for cost, probe in probes:
-        if finished and (not _worth_settling(cost, best_probe) or problem.out_of_time()):
+        if finished and (
+            len(finished) == FINISHED_FITS or not _worth_settling(cost, best_probe) or problem.out_of_time()
+        ):
             break
         v, final = fit(probe, evaluations)
         finished.append((final, v) if final <= cost else (cost, probe))
