@@ -34,6 +34,7 @@ from fabhal.solve.steps import (
     with_target_pull,
 )
 
+LOOP_KEPT_MM = 1e-3  # a result whose loops are open by more is never solved (E506)
 EXTRA_STARTS = 3  # seeded random starts for step 1, besides the spread-out defaults
 # a random start whose loops take longer to close than this is dropped: on the gallery
 # those that close do so within 26 evaluations, and one that fails spends the whole budget
@@ -213,8 +214,23 @@ def _solve_once(model: Model, options: SolveOptions, loop_start: Array | None) -
     x = settled.x
     frames = model.part_frames(x)
     diagnostics = [*notes, *(_fall_diagnostic(model, f) for f in settled.falls)]
+    gap = closure_residual_mm(model, x)
+    if gap > LOOP_KEPT_MM:
+        diagnostics.append(
+            error(
+                "E506",
+                f"a loop is open by {gap:.3g} mm where the solver stopped: the parts cannot be where shown",
+                model.program.targets[0].span,
+                "a solver fault, not the design's (the check closed every loop): try another --seed, "
+                "and report the program",
+            )
+        )
     return Solution(
-        "falls_apart" if settled.falls else "solved" if _at_rest(settled) else "not_at_rest",
+        "falls_apart"
+        if settled.falls
+        else "solved"
+        if _at_rest(settled) and gap <= LOOP_KEPT_MM
+        else "not_at_rest",
         model,
         x,
         frames,

@@ -392,3 +392,28 @@ target s5.hook1 at (0, 0, 300)
     )
     contact = connector_world(solution, 0, "b")[:3, 3]
     assert np.abs(points[:, :2] - contact[:2]).max() < 0.5
+
+
+def test_a_loop_closed_half_turned_round_is_not_closed(tmp_path: Path) -> None:
+    """The soap bottle holder with its second eye ring threaded without `flip`.
+    The optimiser keeps six closure equations at zero (position and the
+    antisymmetric part of the rotation error); they also vanish where a
+    connector is turned 180 degrees, and step 1 once ended there, the loop
+    open by 199 mm and reported solved. Whatever the answer, its loops must be
+    closed (1e-6 mm: the closure tolerance of the solver)."""
+    source = (REPO / "programs" / "soap_bottle_holder.fhl").read_text()
+    source = source.replace('import "lib/', f'import "{REPO / "programs" / "lib"}/')
+    source = source.replace("connect hanger.ring2 -- door flip", "connect hanger.ring2 -- door")
+    assert "door flip" not in source
+    result = solve_text(tmp_path, source)
+    assert result.solution is not None and result.solution.residual < 1e-6
+
+
+def test_a_result_with_an_open_loop_is_never_solved(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """The safety net behind the closure: with the kept-loop tolerance below
+    any float (negative), the soap bottle holder's closed loop counts as open:
+    status not_at_rest and E506, never solved."""
+    monkeypatch.setattr(solve_module, "LOOP_KEPT_MM", -1.0)
+    result = api.solve(REPO / "programs" / "soap_bottle_holder.fhl")
+    assert result.status == "not_at_rest"
+    assert [d.code for d in result.diagnostics if d.severity == "error"] == ["E506"]
