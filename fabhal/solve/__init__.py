@@ -17,11 +17,12 @@ import numpy as np
 from fabhal.check.cycles import close_loops
 from fabhal.diagnostics import Diagnostic, Severity, error, warning
 from fabhal.kinematics.frames import Array
+from fabhal.kinematics.statics import Wrenches
 from fabhal.meshes import mass_properties
 from fabhal.model import Joint, Model
 from fabhal.solve import reach
 from fabhal.solve import target as target_mod
-from fabhal.solve.forces import connection_wrenches, friction_slides, slide_forces, weight_newtons
+from fabhal.solve.forces import connection_wrenches, friction_slides, normal_forces, weight_newtons
 from fabhal.solve.spacing import Spacing, spacing_constraints, spacing_values, spread
 from fabhal.solve.steps import (
     FRICTION,
@@ -59,12 +60,12 @@ BOUND_TOLERANCE = 1e-6  # a DoF within this fraction of its range from an end re
 EQUILIBRIUM_TOLERANCE = 1e-3
 # settling stops at a tenth of that: the verification then has room for rounding
 SETTLE_TOLERANCE = 0.1 * EQUILIBRIUM_TOLERANCE
-# two settled results from different starts are the same when their targets are
-# this close: a builder's precision (see fabhal/solve/reach.py)
 # settling again while the contacts' normal forces still change (friction comes from them)
 FRICTION_ROUNDS = 3
 # ...by more than this fraction of the assembly's weight (times FRICTION)
 FRICTION_AGREEMENT = 0.01
+# two settled results from different starts are the same when their targets are
+# this close: a builder's precision (see fabhal/solve/reach.py)
 DISAGREE_MM = 5.0
 DISAGREE_DEG = 5.0
 
@@ -225,12 +226,12 @@ def _solve_once(model: Model, options: SolveOptions, loop_start: Array | None) -
                 "and report the program",
             )
         )
+    if settled.falls:
+        status = "falls_apart"
+    else:
+        status = "solved" if _at_rest(settled) and gap <= LOOP_KEPT_MM else "not_at_rest"
     return Solution(
-        "falls_apart"
-        if settled.falls
-        else "solved"
-        if _at_rest(settled) and gap <= LOOP_KEPT_MM
-        else "not_at_rest",
+        status,
         model,
         x,
         frames,
@@ -242,18 +243,8 @@ def _solve_once(model: Model, options: SolveOptions, loop_start: Array | None) -
         settled.at_bound,
         settled.falls,
         tuple(diagnostics),
-        _carried(model, x, masses, centres, settled.at_bound) if options.gravity else None,
+        settled.forces,
     )
-
-
-def _carried(model: Model, x: Array, masses: Array, centres: Array, at_bound: tuple[int, ...]) -> Array:
-    """(J, 3) N: each connection's force where the hack came to rest. Load along
-    a motion is carried where that motion is held (a grip, `fixed`, a pinned
-    DoF), rests on an end of its range, or is a slide friction holds; every
-    other motion is free."""
-    held = {i for joint in model.joints if joint.held for i in joint.a.dof_indices + joint.b.dof_indices}
-    carrying = held | set(model.pinned) | set(at_bound) | set(friction_slides(model))
-    return connection_wrenches(model, x, masses, centres, carrying).forces
 
 
 @dataclass(frozen=True)
@@ -264,20 +255,18 @@ class Settled:
     equilibrium: float | None  # KKT residual, relative to the weight; None without gravity
     at_bound: tuple[int, ...]
     falls: tuple[Fall, ...]
+    forces: Array | None = None  # (J, 3) N each connection carries there (see Solution)
 
 
-def _normal_forces(problem: Problem, x: Array, masses: Array, centres: Array, slides: list[int]) -> Array:
-    """(len(slides),) N: the force across each slide's contact at x, the slides
-    held by friction, the DoFs that do not move in `problem` and those resting
-    on an end of their range carrying load, every other motion free."""
-    if not slides:
-        return np.zeros(0)
+def _wrenches(problem: Problem, x: Array, masses: Array, centres: Array, slides: list[int]) -> Wrenches:
+    """What every connection carries at x: load along a motion is carried where
+    the motion does not move in `problem` (held, pinned), rests on an end of its
+    range, or is a slide friction holds; every other motion is free."""
     model = problem.model
     moving = set(problem.free.tolist())
     fixed = {i for i in range(len(model.variables)) if i not in moving}
     ends = {int(problem.free[k]) for k in _resting_ends(problem, x)}
-    wrenches = connection_wrenches(model, x, masses, centres, fixed | ends | set(slides))
-    return slide_forces(model, x, wrenches, slides).normal
+    return connection_wrenches(model, x, masses, centres, fixed | ends | set(slides))
 
 
 def _settle(
@@ -297,12 +286,13 @@ def _settle(
     movable = np.array([i for i in step1.free if i not in held], dtype=int)
     step2 = Problem(model, movable, x.copy(), step1.spacing, step1.deadline)
     gravity = potential(model, masses, centres)
-    slides = [i for i in friction_slides(model) if i in set(movable.tolist())]
+    moving = set(movable.tolist())
+    slides = [i for i in friction_slides(model) if i in moving]
     origin = x
 
     def with_contacts(at: Array) -> tuple[Callable[[Array], tuple[float, Array]], Array]:
         """The energy with friction from the normal forces of the contacts at `at`."""
-        normal = _normal_forces(step2, at, masses, centres, slides)
+        normal = normal_forces(model, at, _wrenches(step2, at, masses, centres, slides), slides)
         resistance = FRICTION * normal / 1000.0  # N -> joules per mm of sliding
         return with_friction(model, gravity, slides, resistance, origin), resistance
 
@@ -329,10 +319,10 @@ def _settle(
             break
         x = step2.full(settle(step2, energy, x[movable], at_rest).x)
         equilibrium, at_bound, falls = _verify(step2, energy, x, masses)
-    return Settled(x, equilibrium, at_bound, falls)
+    return Settled(x, equilibrium, at_bound, falls, _wrenches(step2, x, masses, centres, slides).forces)
 
 
-def _at_rest(settled: Settled) -> bool:
+def _at_rest(settled: Settled | Solution) -> bool:
     """Verified at rest (always, without gravity: nothing to settle)."""
     return settled.equilibrium is None or settled.equilibrium <= EQUILIBRIUM_TOLERANCE
 
@@ -387,8 +377,7 @@ def _rank(
     fall apart), then one at rest, then the target nearest the request (mm, and
     degrees counted as mm, to 0.1), then the lower energy."""
     position, rotation = target_mod.errors(goal, target_mod.achieved(goal, frames))
-    resting = result.equilibrium is not None and result.equilibrium <= EQUILIBRIUM_TOLERANCE
-    return bool(result.falls), not resting, round(position + rotation, 1), energy
+    return bool(result.falls), not _at_rest(result), round(position + rotation, 1), energy
 
 
 def _require_finite(model: Model, x: Array, masses: Array, centres: Array, step: str) -> None:

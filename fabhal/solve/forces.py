@@ -8,7 +8,6 @@ and weights from the model's forward kinematics.
 from __future__ import annotations
 
 from collections.abc import Iterable
-from dataclasses import dataclass
 
 import numpy as np
 
@@ -38,13 +37,6 @@ def friction_slides(model: Model) -> list[int]:
                 if model.variables[t].dof.name == "t" and t not in model.pinned:
                     slides.append(t)
     return slides
-
-
-@dataclass(frozen=True)
-class SlideForces:
-    dofs: Array  # (S,) the slide DoFs
-    normal: Array  # (S,) N pressing the contact together (across the slide)
-    along: Array  # (S,) N pushing b along the slide's direction of increase (signed)
 
 
 def connection_wrenches(
@@ -86,21 +78,21 @@ def connection_wrenches(
     )
 
 
-def slide_forces(model: Model, x: Array, wrenches: Wrenches, slides: list[int]) -> SlideForces:
-    """At each slide: the force across it (normal) and along it, from what its connection carries."""
+def normal_forces(model: Model, x: Array, wrenches: Wrenches, slides: list[int]) -> Array:
+    """(S,) N: at each slide, the force across it (pressing the contact
+    together), from what its connection carries less the part along the slide."""
+    if not slides:
+        return np.zeros(0)
     fwd = model.forward(x, with_twists=True)
     assert fwd.own_twists is not None
     index = np.array(slides, dtype=int)
-    if not len(index):
-        return SlideForces(index, np.zeros(0), np.zeros(0))
     joints = np.array([model.variables[i].joint for i in slides], dtype=int)
     sign = np.array([1.0 if model.variables[i].side == "a" else -1.0 for i in slides])
     direction = sign[:, None] * fwd.own_twists[index, :3, 3]  # a pure translation along the primitive
     direction /= np.linalg.norm(direction, axis=1, keepdims=True)
     force = wrenches.forces[joints]
     along = np.einsum("ij,ij->i", force, direction)
-    normal = np.linalg.norm(force - along[:, None] * direction, axis=1)
-    return SlideForces(index, normal, along)
+    return np.linalg.norm(force - along[:, None] * direction, axis=1)
 
 
 def _placed(model: Model) -> Array:

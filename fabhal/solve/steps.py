@@ -191,10 +191,10 @@ def fit_target(
     Every start is fitted for FIT_PROBE_EVALUATIONS first, then the most
     promising ones (FINISHED_FITS at most) to FIT_EVALUATIONS, best first, until
     one fits (GOOD_FIT) or the rest end too far from the target to be worth it
-    (`_worth_settling`): a
-    chain that cannot reach its target converges slowly from every start. A
-    start whose probe fits ends the search; it is still finished (polished to
-    convergence). Where none fits, the runner-up is the next best finished fit."""
+    (`_worth_settling`): a chain that cannot reach its target converges slowly
+    from every start. A start whose probe fits ends the search; it is still
+    finished (polished to convergence). Where none fits, the runner-up is the
+    next best finished fit."""
     model = problem.model
 
     def residual_and_jacobian(v: Array) -> tuple[Array, Array]:
