@@ -12,6 +12,7 @@ library parts never loads a mesh, even on a first run. Regenerate it with
 from __future__ import annotations
 
 import os
+from collections.abc import Callable
 from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
@@ -19,6 +20,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from fabhal.kinematics.contact import DistanceGrid, grid_spacing, signed_distance_grid
+from fabhal.kinematics.frames import Array
 from fabhal.kinematics.mass import volume_and_centroid
 from fabhal.library import PartSpec
 from fabhal.primitives import Primitive
@@ -268,6 +271,132 @@ def _file_digest(path: Path) -> bytes:
     import hashlib
 
     return hashlib.sha256(path.read_bytes()).digest()
+
+
+# ---------------------------------------------------------------- contact shapes
+
+# an environment's distance grid reaches this far beyond its mesh (mm)
+CONTACT_MARGIN_MM = 50.0
+# a piece of an environment's mesh thinner than this is a sheet with no inside
+# (a decal on a wall): not an obstacle; walls and floors are modelled as solids
+SHEET_MM = 1.0
+# a slab this thick stands behind an environment's surface primitive (a wall, a counter top)
+SURFACE_SLAB_MM = 40.0
+# points sampled on a movable part's surface to keep out of the environment:
+# about one per this spacing (mm), within the bounds below
+CONTACT_POINT_SPACING_MM = 8.0
+CONTACT_POINTS = (64, 400)
+
+
+def contact_grid(spec: PartSpec) -> DistanceGrid:
+    """The environment part's signed distance grid (fabhal/kinematics/contact.py),
+    built once from its mesh and kept in the user cache dir like the measures."""
+    return _cached_array(spec, "grid", _build_grid)  # type: ignore[return-value]
+
+
+def contact_points(spec: PartSpec) -> Array:
+    """(N, 3) points on the movable part's surface, in its frame (seeded: the same every run)."""
+    return _cached_array(spec, "points", _sample_points)  # type: ignore[return-value]
+
+
+def _contact_mesh(spec: PartSpec) -> trimesh.Trimesh:
+    """The part's mesh, with a solid slab behind each surface primitive when it has no mesh file."""
+    import trimesh
+
+    if spec.mesh is not None:
+        return load_mesh(spec.mesh)
+    pieces = []
+    for primitive in spec.primitives:
+        if primitive.kind == "surface":
+            p = primitive.params
+            slab = trimesh.creation.box(extents=(p["length"], p["width"], SURFACE_SLAB_MM))
+            slab.apply_translation((0.0, 0.0, -SURFACE_SLAB_MM / 2))
+            slab.apply_transform(primitive.base_frame())
+            pieces.append(slab)
+        else:
+            pieces.append(primitive_mesh(primitive))
+    combined = trimesh.util.concatenate(pieces)
+    assert isinstance(combined, trimesh.Trimesh)
+    return combined
+
+
+def _build_grid(spec: PartSpec) -> DistanceGrid:
+    import trimesh
+
+    mesh = _contact_mesh(spec)
+    low = np.asarray(mesh.bounds[0]) - CONTACT_MARGIN_MM
+    high = np.asarray(mesh.bounds[1]) + CONTACT_MARGIN_MM
+    sample_spacing = grid_spacing(low, high) / 2
+    surfaces = []
+    for piece in mesh.split(only_watertight=False):
+        if piece.extents.min() < SHEET_MM:
+            continue
+        count = max(int(piece.area / sample_spacing**2), 100)
+        points, faces = trimesh.sample.sample_surface(piece, count, seed=0)
+        surfaces.append((np.asarray(points), np.asarray(piece.face_normals[faces])))
+    return signed_distance_grid(surfaces, low, high)
+
+
+def _sample_points(spec: PartSpec) -> Array:
+    import trimesh
+
+    mesh = part_mesh(spec)
+    low, high = CONTACT_POINTS
+    count = int(np.clip(mesh.area / CONTACT_POINT_SPACING_MM**2, low, high))
+    points, _ = trimesh.sample.sample_surface(mesh, count, seed=0)
+    return np.asarray(points, dtype=float)
+
+
+_CONTACT_CACHE: dict[tuple[str, str], object] = {}
+
+
+def _cached_array(spec: PartSpec, kind: str, build: Callable[[PartSpec], object]) -> object:
+    """`build(spec)` once per process and once per machine: kept in the user cache
+    dir (an .npz), keyed by the mesh file's bytes (or the primitives) and the code
+    that builds it."""
+    import hashlib
+
+    from fabhal import resources
+    from fabhal.kinematics import contact
+
+    digest = hashlib.sha256(_file_digest(Path(__file__)) + _file_digest(Path(contact.__file__)))
+    digest.update(_file_digest(spec.mesh) if spec.mesh is not None else repr(spec.primitives).encode())
+    key = (kind, digest.hexdigest()[:24])
+    if key in _CONTACT_CACHE:
+        return _CONTACT_CACHE[key]
+    directory = resources.cache_dir()
+    path = directory / f"{kind}-{key[1]}.npz" if directory is not None else None
+    value = _load_array(path, kind) if path is not None and path.is_file() else None
+    if value is None:
+        value = build(spec)
+        if path is not None:
+            _save_array(path, value)
+    _CONTACT_CACHE[key] = value
+    return value
+
+
+def _load_array(path: Path, kind: str) -> object | None:
+    try:
+        with np.load(path) as stored:
+            if kind == "grid":
+                return DistanceGrid(stored["origin"], float(stored["spacing"]), stored["values"])
+            return stored["points"]
+    except (OSError, ValueError, KeyError):
+        return None  # damaged: build again
+
+
+def _save_array(path: Path, value: object) -> None:
+    arrays = (
+        {"origin": value.origin, "spacing": np.array(value.spacing), "values": value.values}
+        if isinstance(value, DistanceGrid)
+        else {"points": value}
+    )
+    try:
+        temporary = path.with_name(f"{path.stem}.{os.getpid()}.tmp.npz")
+        np.savez_compressed(temporary, **arrays)
+        temporary.replace(path)
+    except OSError:
+        pass
 
 
 if __name__ == "__main__":  # python -m fabhal.meshes DIRECTORY: write DIRECTORY/measures.json

@@ -195,6 +195,19 @@ class Model:
         along = np.einsum("ij,ij->i", fwd.twists[:, 2, :3], weighted @ world)
         return along + fwd.twists[:, 2, 3] * weighted.sum(axis=1)
 
+    def wrench_gradient(self, fwd: Forward, forces: Array, moments: Array) -> Array:
+        """(n_dofs,): the generalised force of a force forces[p] (world) and a moment
+        moments[p] (about the world origin) on each part p: each DoF's twist
+        (angular velocity w, velocity v of the point at the origin) dotted with
+        them, w . M + v . F, over the parts it moves."""
+        assert fwd.twists is not None
+        twists = fwd.twists
+        angular = np.stack([twists[:, 2, 1], twists[:, 0, 2], twists[:, 1, 0]], axis=1)
+        moves = self.layout.moves.astype(float)
+        return np.einsum("ij,ij->i", angular, moves @ moments) + np.einsum(
+            "ij,ij->i", twists[:, :3, 3], moves @ forces
+        )
+
     def frame_derivatives(self, fwd: Forward, part: int) -> Array:
         """(n_dofs, 4, 4): d(part-to-world frame of `part`) / dx."""
         assert fwd.twists is not None

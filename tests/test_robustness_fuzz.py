@@ -195,7 +195,7 @@ def assert_ends_well(text: str, directory: Path) -> None:
     assert status in (0, 1), f"exit {status}: {err}\n--- program:\n{text}"
     assert "internal error" not in err, f"{err}\n--- program:\n{text}"
     result = json.loads(out, parse_constant=lambda c: pytest.fail(f"{c} in solve output:\n{text}"))
-    assert result["status"] in ("solved", "falls_apart", "infeasible", "out_of_time", "error")
+    assert result["status"] in ("solved", "falls_apart", "not_at_rest", "infeasible", "out_of_time", "error")
     assert (status == 0) == (result["status"] == "solved")
     event(f"solve: {result['status']}")  # the campaign's statistics (--hypothesis-show-statistics)
     for code in sorted({d["code"] for d in result["diagnostics"]}):

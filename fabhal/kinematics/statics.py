@@ -18,12 +18,18 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+import scipy.linalg
 
 from fabhal.kinematics.frames import Array
 
 # moments enter the least squares divided by this lever arm (mm): the size of an
 # everyday part, so a newton and a newton-decimetre weigh alike
 MOMENT_ARM_MM = 100.0
+# minimum norm by a complete orthogonal factorisation (gelsy: the SVD's answer at
+# half its cost); directions below this fraction of the largest are the loop's own
+# (indeterminate) forces: left out, not amplified. Rounding gives them ~1e-12,
+# and at that size a settled state's 1e-5 imbalance became 300 kN in a loop
+SINGULAR = 1e-8
 
 
 @dataclass(frozen=True)
@@ -52,6 +58,7 @@ def joint_wrenches(
     free_joint: Array,
     free_velocity: Array,
     free_rotation: Array,
+    load_moments: Array | None = None,
 ) -> Wrenches:
     """The wrenches that hold every movable part in balance.
 
@@ -61,7 +68,8 @@ def joint_wrenches(
     part (N) at centres: (P, 3) its centre of mass (mm, world); free_joint: (F,)
     the connection of each free motion, free_velocity (F, 3) the velocity of b
     against a at the contact point (mm per unit) and free_rotation (F, 3) its
-    angular velocity (rad per unit)."""
+    angular velocity (rad per unit); load_moments: (P, 3) N mm about each
+    part's centre of mass, of loads that do not act there (contacts)."""
     n_joints, n_parts = len(part_a), len(movable)
     row_of = np.full(n_parts, -1)
     row_of[movable] = np.arange(int(movable.sum()))
@@ -77,6 +85,8 @@ def joint_wrenches(
             matrix[r + 3 : r + 6, c + 3 : c + 6] += sign * np.eye(3)
     placed = np.flatnonzero(movable)
     rhs[:n_balance].reshape(-1, 6)[:, :3] = -loads[placed]
+    if load_moments is not None:
+        rhs[:n_balance].reshape(-1, 6)[:, 3:] = -load_moments[placed] / MOMENT_ARM_MM
     # no work along a free motion: f . v + m . w = 0, with m = MOMENT_ARM_MM x the unknown
     rows = np.hstack([free_velocity, MOMENT_ARM_MM * free_rotation])
     norms = np.linalg.norm(rows, axis=1, keepdims=True)
@@ -84,7 +94,10 @@ def joint_wrenches(
     for k, j in enumerate(free_joint):
         matrix[n_balance + k, 6 * j : 6 * j + 6] = rows[k]
     solution = np.asarray(
-        np.linalg.lstsq(matrix, rhs, rcond=None)[0] if matrix.size else np.zeros(0), dtype=float
+        scipy.linalg.lstsq(matrix, rhs, cond=SINGULAR, lapack_driver="gelsy")[0]
+        if matrix.size
+        else np.zeros(0),
+        dtype=float,
     )
     wrenches = solution.reshape(n_joints, 6)
     imbalance = float(np.abs(matrix @ solution - rhs).max()) if len(rhs) else 0.0

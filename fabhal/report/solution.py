@@ -104,10 +104,22 @@ def _solution(solution: Solution) -> dict[str, Any]:
             connection["force_n"] = _numbers(solution.forces[joint.index])
             connection["carries_n"] = round(float(np.linalg.norm(solution.forces[joint.index])), 4)
         connections.append(connection)
+    contacts = [  # where the environment holds a part by touching it (fabhal/solve/contacts.py)
+        {
+            "part": model.parts[contact.part].name,
+            "rests_on": model.parts[contact.environment].name,
+            "point": _numbers(contact.point, 2),
+            "force_n": _numbers(contact.force),
+            "carries_n": round(float(np.linalg.norm(contact.force)), 4),
+            "depth_mm": round(contact.depth, 4),
+        }
+        for contact in solution.contacts
+    ]
     return {
         "target": target,
         "parts": parts,
         "connections": connections,
+        "contacts": contacts,
         "energy": round(solution.energy, 6),
         "residual": float(f"{solution.residual:.3g}"),
     }
@@ -169,6 +181,12 @@ def renderables(result: SolveOutcome, program: str) -> list[RenderableType]:
     chain = Text(f"how it hangs (each line: {what})\n", style="bold")
     for depth, line in hanging_lines(solution.model, solution.forces):
         chain.append("  " * (depth + 1) + line + "\n")
+    for contact in solution.contacts:
+        resting, holder = (solution.model.parts[i].name for i in (contact.part, contact.environment))
+        chain.append(
+            f"  {resting}  rests against  {holder}  at {_triple(_numbers(contact.point, 1))}"
+            f"  ({float(np.linalg.norm(contact.force)):.2f} N)\n"
+        )
     return [head, table, chain]
 
 

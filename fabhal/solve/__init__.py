@@ -22,13 +22,16 @@ from fabhal.meshes import mass_properties
 from fabhal.model import Joint, Model
 from fabhal.solve import reach
 from fabhal.solve import target as target_mod
+from fabhal.solve.contacts import Contact, Pair, contact_loads, contact_pairs, contacts_at, with_contacts
 from fabhal.solve.forces import connection_wrenches, friction_slides, normal_forces, weight_newtons
 from fabhal.solve.spacing import Spacing, spacing_constraints, spacing_values, spread
 from fabhal.solve.steps import (
     FRICTION,
+    FRICTION_SMOOTHING_MM,
     Problem,
     closure_residual_mm,
     fit_target,
+    mm_per_unit,
     potential,
     settle,
     with_friction,
@@ -116,6 +119,7 @@ class Solution:
     diagnostics: tuple[Diagnostic, ...]
     # (J, 3) N that each connection's a side exerts on its b side, world axes; None without gravity
     forces: Array | None = None
+    contacts: tuple[Contact, ...] = ()  # where parts rest on the environment (with gravity)
 
     def target_frame(self) -> Array:
         return target_mod.achieved(self.goal, self.frames)
@@ -166,7 +170,8 @@ def _solve_once(model: Model, options: SolveOptions, loop_start: Array | None) -
 
     step1, starts = step_one(model, options.seed, loop_start, options.deadline)
     options.report("step 1: bringing the target to its frame")
-    fit = fit_target(step1, goal, starts)
+    pairs = contact_pairs(model)
+    fit = fit_target(step1, goal, starts, pairs)
     x = step1.full(fit.v)
     # step 1 moves parts without their masses: only its frames can break
     _require_finite(
@@ -184,17 +189,17 @@ def _solve_once(model: Model, options: SolveOptions, loop_start: Array | None) -
     if options.gravity:
         options.report("step 2: settling under gravity")
         _require_finite(model, x, masses, centres, "step 2 (settling under gravity)")
-        settled = _settle(step1, x, masses, centres, goal)
+        settled = _settle(step1, x, masses, centres, goal, pairs)
         if fit.runner_up is not None and not step1.out_of_time():
             options.report("step 2: settling from another start")
             start = step1.full(fit.runner_up)
             # a plain settle to compare; the stability test and the turn only if it wins
-            other = _settle(step1, start, masses, centres, goal, thorough=False)
+            other = _settle(step1, start, masses, centres, goal, pairs, thorough=False)
             settled, disagreement = _pick(
                 model, goal, settled, other, lambda s: _energy(model.part_frames(s.x), masses, centres)
             )
             if settled is other:
-                settled = _settle(step1, start, masses, centres, goal)
+                settled = _settle(step1, start, masses, centres, goal, pairs)
             if disagreement is not None:
                 notes.append(disagreement)
         if not settled.falls and not _at_rest(settled):
@@ -244,6 +249,7 @@ def _solve_once(model: Model, options: SolveOptions, loop_start: Array | None) -
         settled.falls,
         tuple(diagnostics),
         settled.forces,
+        settled.contacts,
     )
 
 
@@ -256,17 +262,27 @@ class Settled:
     at_bound: tuple[int, ...]
     falls: tuple[Fall, ...]
     forces: Array | None = None  # (J, 3) N each connection carries there (see Solution)
+    contacts: tuple[Contact, ...] = ()
 
 
-def _wrenches(problem: Problem, x: Array, masses: Array, centres: Array, slides: list[int]) -> Wrenches:
+def _wrenches(
+    problem: Problem,
+    x: Array,
+    masses: Array,
+    centres: Array,
+    slides: list[int],
+    contacts: tuple[Contact, ...],
+) -> Wrenches:
     """What every connection carries at x: load along a motion is carried where
     the motion does not move in `problem` (held, pinned), rests on an end of its
-    range, or is a slide friction holds; every other motion is free."""
+    range, or is a slide friction holds; every other motion is free. What the
+    environment's contacts carry is taken off first."""
     model = problem.model
     moving = set(problem.free.tolist())
     fixed = {i for i in range(len(model.variables)) if i not in moving}
     ends = {int(problem.free[k]) for k in _resting_ends(problem, x)}
-    return connection_wrenches(model, x, masses, centres, fixed | ends | set(slides))
+    loads = contact_loads(model, contacts) if contacts else None
+    return connection_wrenches(model, x, masses, centres, fixed | ends | set(slides), loads)
 
 
 def _settle(
@@ -275,6 +291,7 @@ def _settle(
     masses: Array,
     centres: Array,
     goal: target_mod.TargetGoal,
+    pairs: tuple[Pair, ...],
     thorough: bool = True,
 ) -> Settled:
     """Step 2 from step 1's `x`: held DoFs stay, the rest settle under gravity (with
@@ -285,19 +302,20 @@ def _settle(
     held = {i for j in model.joints if j.held for i in j.a.dof_indices + j.b.dof_indices}
     movable = np.array([i for i in step1.free if i not in held], dtype=int)
     step2 = Problem(model, movable, x.copy(), step1.spacing, step1.deadline)
-    gravity = potential(model, masses, centres)
+    weight = _weight(masses)
+    gravity = with_contacts(model, potential(model, masses, centres), pairs, weight)
     moving = set(movable.tolist())
     slides = [i for i in friction_slides(model) if i in moving]
     origin = x
 
-    def with_contacts(at: Array) -> tuple[Callable[[Array], tuple[float, Array]], Array]:
+    def with_friction_at(at: Array) -> tuple[Callable[[Array], tuple[float, Array]], Array]:
         """The energy with friction from the normal forces of the contacts at `at`."""
-        normal = normal_forces(model, at, _wrenches(step2, at, masses, centres, slides), slides)
+        contacts = contacts_at(model, at, pairs, weight)
+        normal = normal_forces(model, at, _wrenches(step2, at, masses, centres, slides, contacts), slides)
         resistance = FRICTION * normal / 1000.0  # N -> joules per mm of sliding
         return with_friction(model, gravity, slides, resistance, origin), resistance
 
-    energy, resistance = with_contacts(x)
-    weight = _weight(masses)
+    energy, resistance = with_friction_at(x)
     at_rest = SETTLE_TOLERANCE * weight
     if len(movable) and thorough:
         x, curvature = _settle_stably(step2, energy, x, at_rest, weight)
@@ -308,18 +326,33 @@ def _settle(
     for _ in range(FRICTION_ROUNDS):  # until friction agrees with the forces where it settled
         if not slides or step2.out_of_time():
             break
-        updated_energy, updated = with_contacts(x)
+        updated_energy, updated = with_friction_at(x)
         if np.abs(updated - resistance).max() <= FRICTION_AGREEMENT * FRICTION * weight:
             break
         energy, resistance = updated_energy, updated
         x = step2.full(settle(step2, energy, x[movable], at_rest).x)
-    equilibrium, at_bound, falls = _verify(step2, energy, x, masses)
+    holding = _friction_left(model, slides, resistance, x, origin)
+    equilibrium, at_bound, falls = _verify(step2, energy, x, masses, holding)
     for _ in range(POLISH_ROUNDS):  # a long loop's flat valley may need more iterations
         if equilibrium <= EQUILIBRIUM_TOLERANCE or not len(movable) or step2.out_of_time():
             break
         x = step2.full(settle(step2, energy, x[movable], at_rest).x)
-        equilibrium, at_bound, falls = _verify(step2, energy, x, masses)
-    return Settled(x, equilibrium, at_bound, falls, _wrenches(step2, x, masses, centres, slides).forces)
+        equilibrium, at_bound, falls = _verify(step2, energy, x, masses, holding)
+    contacts = contacts_at(model, x, pairs, weight)
+    forces = _wrenches(step2, x, masses, centres, slides, contacts).forces
+    return Settled(x, equilibrium, at_bound, falls, forces, contacts)
+
+
+def _friction_left(
+    model: Model, slides: list[int], resistance: Array, x: Array, origin: Array
+) -> dict[int, float]:
+    """The static friction (joules per mm) each slide can still give beyond what
+    the settle's friction term already exerts at x: all of it where the slide has
+    not moved, none once it slides (the term then pulls with its full resistance)."""
+    index = np.array(slides, dtype=int)
+    moved = (x[index] - origin[index]) * mm_per_unit(model)[index]
+    exerted = np.abs(moved) / np.sqrt(moved**2 + FRICTION_SMOOTHING_MM**2)
+    return dict(zip(slides, resistance * (1.0 - exerted), strict=True))
 
 
 def _at_rest(settled: Settled | Solution) -> bool:
@@ -545,11 +578,17 @@ def _mass_table(model: Model) -> tuple[Array, Array]:
 
 
 def _verify(
-    problem: Problem, energy: Callable[[Array], tuple[float, Array]], x: Array, masses: Array
+    problem: Problem,
+    energy: Callable[[Array], tuple[float, Array]],
+    x: Array,
+    masses: Array,
+    holding: dict[int, float],
 ) -> tuple[float, tuple[int, ...], tuple[Fall, ...]]:
     """KKT check at the settled point: stationarity on the DoFs inside their
     ranges; on those resting on an end, the sign of the push decides whether an
-    open connection comes apart. Forces are per mm of motion, over the total weight."""
+    open connection comes apart, and a slide pushed off its end comes apart only
+    when the push beats what friction holds (`holding`: joules per mm of sliding,
+    by DoF). Forces are per mm of motion, over the total weight."""
     model = problem.model
     free = problem.free
     weight = _weight(masses)
@@ -574,7 +613,8 @@ def _verify(
         i = int(free[k])
         dof = model.variables[i].dof
         outward = force[k] > 0 if end == "min" else force[k] < 0
-        pushed = abs(force[k]) > EQUILIBRIUM_TOLERANCE
+        held = holding.get(i, 0.0) / weight if outward else 0.0  # static friction, before it slides
+        pushed = abs(force[k]) - held > EQUILIBRIUM_TOLERANCE
         if not outward and pushed:
             stationarity = max(stationarity, abs(force[k]))  # would move back inside: not at rest
         is_open = dof.low_open if end == "min" else dof.high_open

@@ -40,13 +40,20 @@ def friction_slides(model: Model) -> list[int]:
 
 
 def connection_wrenches(
-    model: Model, x: Array, masses: Array, centres: Array, carrying: Iterable[int]
+    model: Model,
+    x: Array,
+    masses: Array,
+    centres: Array,
+    carrying: Iterable[int],
+    contact_loads: tuple[Array, Array] | None = None,
 ) -> Wrenches:
     """What every connection carries at x. `carrying`: the DoFs that can carry a
     load along their motion (held, pinned, resting on an end of their range,
     held by friction); every other DoF's motion is free.
 
-    masses: (P,) grams; centres: (P, 3) mm in part frames."""
+    masses: (P,) grams; centres: (P, 3) mm in part frames; contact_loads: the
+    environment's contact forces on each part (P, 3) N and their moments about
+    the world origin (P, 3) N mm (fabhal/solve/contacts.py)."""
     fwd = model.forward(x, with_twists=True)
     assert fwd.own_twists is not None
     frames, local = fwd.frames, fwd.local
@@ -57,6 +64,11 @@ def connection_wrenches(
     world_centres = np.einsum("pij,pj->pi", frames[:, :3, :3], centres) + frames[:, :3, 3]
     loads = np.zeros((len(model.parts), 3))
     loads[:, 2] = -weight_newtons(masses)
+    load_moments = None
+    if contact_loads is not None:
+        forces, moments = contact_loads
+        loads = loads + forces
+        load_moments = moments - np.cross(world_centres, forces)  # about each centre of mass
     movable = np.array([not p.environment for p in model.parts]) & _placed(model)
     held = set(carrying)
     free = [i for i in range(len(model.variables)) if i not in held]
@@ -75,6 +87,7 @@ def connection_wrenches(
         joint,
         sign[:, None] * velocity.reshape(-1, 3),
         sign[:, None] * rotation,
+        load_moments,
     )
 
 

@@ -40,7 +40,7 @@ def diagnose(problem: Problem, goal: target_mod.TargetGoal, x: Array) -> Diagnos
     model = problem.model
     position, rotation = target_mod.errors(goal, target_mod.achieved(goal, model.part_frames(x)))
     free_turn = replace(goal, rotation_weight=0.0)
-    loose = problem.full(fit_target(problem, free_turn, [x[problem.free]], REACH_EVALUATIONS).v)
+    loose = problem.full(fit_target(problem, free_turn, [x[problem.free]], evaluations=REACH_EVALUATIONS).v)
     frames = model.part_frames(loose)
     loose_position = target_mod.errors(goal, target_mod.achieved(goal, frames))[0]
     target = model.program.targets[0]

@@ -18,7 +18,7 @@ from __future__ import annotations
 import itertools
 import time
 from collections.abc import Callable, Iterable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from functools import cached_property
 from typing import Any
 
@@ -35,6 +35,7 @@ from fabhal.optimize import (
     tangent_curvature,
 )
 from fabhal.solve import target as target_mod
+from fabhal.solve.contacts import Pair, penetration
 from fabhal.solve.forces import weight_newtons
 from fabhal.solve.spacing import Spacing, spacing_jacobian, spacing_values
 
@@ -184,7 +185,11 @@ class Fit:
 
 
 def fit_target(
-    problem: Problem, goal: target_mod.TargetGoal, starts: Iterable[Array], evaluations: int = FIT_EVALUATIONS
+    problem: Problem,
+    goal: target_mod.TargetGoal,
+    starts: Iterable[Array],
+    pairs: tuple[Pair, ...] = (),
+    evaluations: int = FIT_EVALUATIONS,
 ) -> Fit:
     """Best free DoFs over the starts (taken from `starts` only as needed).
 
@@ -194,7 +199,9 @@ def fit_target(
     (`_worth_settling`): a chain that cannot reach its target converges slowly
     from every start. A start whose probe fits ends the search; it is still
     finished (polished to convergence). Where none fits, the runner-up is the
-    next best finished fit."""
+    next best finished fit. If the answer passes through the environment
+    (`pairs`), it is fitted once more with each millimetre a point is inside
+    costing like a millimetre of target error."""
     model = problem.model
 
     def residual_and_jacobian(v: Array) -> tuple[Array, Array]:
@@ -202,14 +209,30 @@ def fit_target(
         r = target_mod.residual(goal, target_mod.achieved(goal, fwd.frames))
         return r, target_mod.residual_jacobian(goal, model, fwd)[:, problem.free]
 
-    objective = least_squares_objective(residual_and_jacobian)
+    def kept_out(v: Array) -> tuple[Array, Array]:
+        r, jacobian = residual_and_jacobian(v)
+        depth, depth_jacobian = penetration(model, problem.full(v), pairs)
+        return np.concatenate([r, depth]), np.vstack([jacobian, depth_jacobian[:, problem.free]])
 
-    def fit(start: Array, evaluations: int) -> tuple[Array, float]:
+    def fit(start: Array, evaluations: int, with_contacts: bool = False) -> tuple[Array, float]:
+        residuals = kept_out if with_contacts else residual_and_jacobian
         v = problem.minimize(
-            objective, start, max_evaluations=evaluations, ftol=FIT_FTOL, stalled=_fit_stalled
+            least_squares_objective(residuals),
+            start,
+            max_evaluations=evaluations,
+            ftol=FIT_FTOL,
+            stalled=_fit_stalled,
         ).x
-        r = residual_and_jacobian(v)[0]
+        r = residuals(v)[0]
         return v, float(r @ r) if _feasible(problem, v) else np.inf
+
+    def out_of_the_world(result: Fit) -> Fit:
+        """The fit again from where it ended, now kept out of the environment,
+        when it passes through it (fitted without: contact residuals switch on
+        and off, and from the start they lead the fit astray)."""
+        if not pairs or result.late or not penetration(model, problem.full(result.v), pairs)[0].any():
+            return result
+        return replace(result, v=fit(result.v, evaluations, with_contacts=True)[0])
 
     probes: list[tuple[float, Array]] = []
     remaining = iter(starts)
@@ -241,7 +264,7 @@ def fit_target(
             break
     finished.sort(key=lambda result: result[0])
     (cost, v), others = finished[0], [u for c, u in finished[1:] if _worth_settling(c, finished[0][0])]
-    return Fit(v, False, None if cost < GOOD_FIT**2 or not others else others[0])
+    return out_of_the_world(Fit(v, False, None if cost < GOOD_FIT**2 or not others else others[0]))
 
 
 def _worth_settling(cost: float, best: float) -> bool:

@@ -15,6 +15,7 @@ KEYS = {
     "target",
     "parts",
     "connections",
+    "contacts",
     "energy",
     "residual",
     "diagnostics",

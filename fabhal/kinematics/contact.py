@@ -1,0 +1,130 @@
+"""Contact with the world: signed distance grids of meshes and the penalty
+that keeps points out of them (pure numpy, plus scipy's k-d tree).
+
+A mesh's signed distance (mm; negative inside) is sampled once on a regular
+grid and interpolated trilinearly: smooth enough for gradient methods (its
+gradient is the outward normal), vectorised over thousands of points, and
+cheap to keep (fabhal/meshes.py caches the grids on disk). It is measured
+from points sampled on the surface with their normals, so a scan that is not
+closed still has an inside wherever its normals face away.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from fabhal.kinematics.frames import Array
+
+# the grid has at most this many points (2 MB as float32)
+GRID_POINTS = 500_000
+FINEST_CELL_MM = 2.0
+BAND_CELLS = 4.0  # see signed_distance_grid
+NEAREST_SAMPLES = 4  # of which the one facing the point gives its side
+
+
+@dataclass(frozen=True)
+class DistanceGrid:
+    """A signed distance field sampled at origin + spacing * (i, j, k)."""
+
+    origin: Array  # (3,) mm
+    spacing: float  # mm
+    values: Array  # (nx, ny, nz) mm, negative inside
+
+    def near(self, centre: Array, radius: float) -> bool:
+        """Whether a ball (in the grid's frame) reaches into the grid's box."""
+        high = self.origin + self.spacing * (np.array(self.values.shape) - 1)
+        return bool(np.linalg.norm(centre - np.clip(centre, self.origin, high)) <= radius)
+
+    def sample(self, points: Array) -> tuple[Array, Array]:
+        """(N, 3) points in the grid's frame -> (N,) distances and (N, 3)
+        gradients (trilinear). Outside the grid: +inf and zero."""
+        shape = np.array(self.values.shape)
+        cell = (points - self.origin) / self.spacing
+        corner = np.floor(cell).astype(int)
+        inside = np.all((corner >= 0) & (corner < shape - 1), axis=1)
+        distance = np.full(len(points), np.inf)
+        gradient = np.zeros((len(points), 3))
+        if not inside.any():
+            return distance, gradient
+        c = corner[inside]
+        u = cell[inside] - c
+        ny, nz = self.values.shape[1:]
+        flat = self.values.ravel()
+        base = (c[:, 0] * ny + c[:, 1]) * nz + c[:, 2]
+        steps = np.array([(a * ny + b) * nz + e for a in (0, 1) for b in (0, 1) for e in (0, 1)])
+        corners = flat[base[:, None] + steps].reshape(-1, 2, 2, 2)  # [x][y][z] corners of each cell
+        ux, uy, uz = u[:, 0, None, None], u[:, 1, None], u[:, 2]
+        along_x = corners[:, 0] * (1 - ux) + corners[:, 1] * ux  # (n, 2, 2) over y, z
+        along_y = along_x[:, 0] * (1 - uy) + along_x[:, 1] * uy  # (n, 2) over z
+        distance[inside] = along_y[:, 0] * (1 - uz) + along_y[:, 1] * uz
+        d_x = corners[:, 1] - corners[:, 0]
+        d_x = d_x[:, 0] * (1 - uy) + d_x[:, 1] * uy
+        d_y = along_x[:, 1] - along_x[:, 0]
+        gradient[inside, 0] = d_x[:, 0] * (1 - uz) + d_x[:, 1] * uz
+        gradient[inside, 1] = d_y[:, 0] * (1 - uz) + d_y[:, 1] * uz
+        gradient[inside, 2] = along_y[:, 1] - along_y[:, 0]
+        gradient /= self.spacing
+        return distance, gradient
+
+
+def signed_distance_grid(components: list[tuple[Array, Array]], low: Array, high: Array) -> DistanceGrid:
+    """The signed distance of a union of closed surfaces on a grid over the box
+    [low, high] (mm), with at most GRID_POINTS points (cells no finer than
+    FINEST_CELL_MM). Each surface is given as points sampled on it (about half
+    a cell apart) with their outward normals.
+
+    A grid point's distance from one surface is measured from the nearest
+    sample (of the NEAREST_SAMPLES nearest, the one facing the point most):
+    along that sample's normal where the point lies over it (within
+    half a cell sideways: exact over flat and gently curved surface), else
+    straight to it (beyond an edge or corner); inside where it lies behind the
+    normal. The union's is the least over the surfaces (surfaces that touch or
+    overlap, like a hook's pad on a wall, are one solid), each measured only
+    near its own bounds: farther than BAND_CELLS cells out, distances are cut
+    to that, which is all a contact needs to know."""
+    from scipy.spatial import cKDTree
+
+    spacing = grid_spacing(low, high)
+    counts = np.ceil((high - low) / spacing).astype(int) + 1
+    band = BAND_CELLS * spacing
+    values = np.full(tuple(counts), band)
+    for samples, normals in components:
+        first = np.clip(np.floor((samples.min(axis=0) - band - low) / spacing).astype(int), 0, counts - 1)
+        last = np.clip(np.ceil((samples.max(axis=0) + band - low) / spacing).astype(int), 0, counts - 1)
+        axes = [low[d] + spacing * np.arange(first[d], last[d] + 1) for d in range(3)]
+        grid = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1)
+        shape = grid.shape[:3]
+        points = grid.reshape(-1, 3)
+        straight, nearest = cKDTree(samples).query(points, k=min(NEAREST_SAMPLES, len(samples)))
+        straight, nearest = straight.reshape(len(points), -1), nearest.reshape(len(points), -1)
+        along = np.einsum("pkj,pkj->pk", points[:, None] - samples[nearest], normals[nearest])
+        # of the nearest samples, the one facing the point most: a thin sheet's two
+        # faces lie at the same place, and the point is on the side of the one facing it
+        facing = along / np.maximum(straight, 1e-9)
+        near = straight <= straight[:, :1] + spacing / 2
+        pick = np.argmax(np.where(near, facing, -np.inf), axis=1)
+        rows = np.arange(len(points))
+        straight, along = straight[rows, pick], along[rows, pick]
+        sideways = np.sqrt(np.maximum(straight**2 - along**2, 0.0))
+        distance = np.where(sideways <= spacing / 2, along, np.copysign(straight, along)).reshape(shape)
+        block = tuple(slice(first[d], last[d] + 1) for d in range(3))
+        values[block] = np.minimum(values[block], distance)
+    return DistanceGrid(low, spacing, np.minimum(values, band).astype(np.float32))
+
+
+def grid_spacing(low: Array, high: Array) -> float:
+    """The cell size (mm) of a grid over [low, high] with at most GRID_POINTS points."""
+    return max(FINEST_CELL_MM, float(np.prod(high - low) / GRID_POINTS) ** (1 / 3))
+
+
+def penalty(distance: Array, stiffness: float) -> tuple[float, Array]:
+    """Energy stiffness / 2 x sum(depth^2) of the points inside (depth = -distance
+    where negative), and its derivative by each distance."""
+    depth = np.maximum(-distance, 0.0)
+    return 0.5 * stiffness * float(depth @ depth), -stiffness * depth
+
+
+def _dot(u: Array, v: Array) -> Array:
+    return np.einsum("ij,ij->i", u, v)
