@@ -1,0 +1,75 @@
+"""Signed distance grids and their trilinear sampling (fabhal/kinematics/contact.py)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import trimesh
+
+from fabhal.kinematics.contact import DistanceGrid, penalty, signed_distance_grid
+
+
+def sampled(mesh: trimesh.Trimesh, count: int = 60_000) -> tuple[np.ndarray, np.ndarray]:
+    points, faces = trimesh.sample.sample_surface(mesh, count, seed=0)
+    return np.asarray(points), np.asarray(mesh.face_normals[faces])
+
+
+def test_trilinear_sampling_is_exact_on_a_linear_field() -> None:
+    """d(p) = a . p + 1 is reproduced exactly by trilinear interpolation, and its
+    gradient is a: 1e-12 is rounding."""
+    a = np.array([0.3, -0.2, 0.5])
+    axes = [2.0 * np.arange(n) for n in (5, 6, 7)]
+    nodes = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1)
+    grid = DistanceGrid(np.zeros(3), 2.0, nodes @ a + 1.0)
+    points = np.random.default_rng(1).uniform(0.0, 8.0, (50, 3))
+    distance, gradient = grid.sample(points)
+    assert np.abs(distance - (points @ a + 1.0)).max() < 1e-12
+    assert np.abs(gradient - a).max() < 1e-12
+    far, none = grid.sample(np.array([[100.0, 0.0, 0.0]]))
+    assert far[0] == np.inf and not none.any()
+
+
+def test_a_boxes_distance_inside_and_out() -> None:
+    """A 100 x 100 x 20 mm slab at the origin (a 2 mm grid): 15 mm above its
+    middle the distance is 15 - 10 = 5 mm, 7 mm below its middle -3 (inside, 3
+    from the bottom face), 15 below its bottom face 5. Near a flat face the
+    distance is measured along its normal and interpolated linearly: 0.05 mm.
+    Midway between the two faces the distance has a ridge that interpolation
+    cuts: there it is only required to be inside, within a cell (2 mm) of -10.
+    Beyond BAND_CELLS cells (8 mm) out the distance is cut to 8 mm."""
+    slab = trimesh.creation.box(extents=(100.0, 100.0, 20.0))
+    grid = signed_distance_grid([sampled(slab)], np.full(3, -80.0), np.full(3, 80.0))
+    points = np.array(
+        [[0.0, 0.0, 15.0], [3.0, -4.0, -7.0], [10.0, 10.0, -15.0], [0.0, 0.0, 0.0], [0, 0, 40.0]]
+    )
+    distance, gradient = grid.sample(points)
+    assert np.allclose(distance[:3], [5.0, -3.0, 5.0], atol=0.05)
+    assert -10.0 - 2.0 <= distance[3] <= -10.0 + 2.0
+    assert distance[4] == np.float32(4 * grid.spacing)
+    assert np.allclose(gradient[0], [0.0, 0.0, 1.0], atol=0.02)  # the way out: up
+    assert np.allclose(gradient[1], [0.0, 0.0, -1.0], atol=0.02)  # nearest the bottom: out through it
+
+
+def test_a_sheet_on_a_wall_does_not_turn_the_wall_inside_out() -> None:
+    """A sheet whose two faces lie at one place (a decal, 0.05 mm) on a 40 mm
+    wall: in front of both the distance is to the sheet (10 mm in front: +10),
+    inside the wall it is the wall's (-20 at its middle): the union is the
+    least of the two, and of the sheet's coincident faces the one facing the
+    point says on which side it is."""
+    wall = trimesh.creation.box(extents=(40.0, 200.0, 200.0))
+    wall.apply_translation((-20.0, 0.0, 0.0))
+    sheet = trimesh.creation.box(extents=(0.05, 100.0, 100.0))
+    grid = signed_distance_grid(
+        [sampled(wall), sampled(sheet, 20_000)], np.array([-90, -150, -150.0]), np.full(3, 150.0)
+    )
+    distance, _ = grid.sample(np.array([[10.0, 0.0, 0.0], [-20.0, 5.0, 5.0]]))
+    assert distance[0] == pytest.approx(10.0, abs=0.05)
+    assert distance[1] == pytest.approx(-20.0, abs=grid.spacing)
+
+
+def test_the_penalty_pushes_only_what_is_inside() -> None:
+    """k/2 x depth^2: with k = 4, depths 0.5 and 0 (outside) cost 0.5 and 0; the
+    derivative by each distance is -k x depth."""
+    energy, slope = penalty(np.array([-0.5, 2.0]), 4.0)
+    assert energy == 0.5
+    assert np.allclose(slope, [-2.0, 0.0])
