@@ -152,13 +152,15 @@ def primitive_mesh(primitive: Primitive) -> trimesh.Trimesh:
     return mesh
 
 
-def part_mesh(spec: PartSpec) -> trimesh.Trimesh:
-    """The part's mesh file, or its primitives' shapes when it has none."""
+def part_mesh(
+    spec: PartSpec, shape: Callable[[Primitive], trimesh.Trimesh] = primitive_mesh
+) -> trimesh.Trimesh:
+    """The part's mesh file, or its primitives' shapes (`shape` of each) when it has none."""
     import trimesh
 
     if spec.mesh is not None:
         return load_mesh(spec.mesh)
-    combined = trimesh.util.concatenate([primitive_mesh(p) for p in spec.primitives])
+    combined = trimesh.util.concatenate([shape(p) for p in spec.primitives])
     assert isinstance(combined, trimesh.Trimesh)
     return combined
 
@@ -299,31 +301,23 @@ def contact_points(spec: PartSpec) -> Array:
     return _cached_array(spec, "points", _sample_points)  # type: ignore[return-value]
 
 
-def _contact_mesh(spec: PartSpec) -> trimesh.Trimesh:
-    """The part's mesh, with a solid slab behind each surface primitive when it has no mesh file."""
+def _solid_shape(primitive: Primitive) -> trimesh.Trimesh:
+    """A primitive's shape as an obstacle: a surface primitive is a slab behind its face."""
     import trimesh
 
-    if spec.mesh is not None:
-        return load_mesh(spec.mesh)
-    pieces = []
-    for primitive in spec.primitives:
-        if primitive.kind == "surface":
-            p = primitive.params
-            slab = trimesh.creation.box(extents=(p["length"], p["width"], SURFACE_SLAB_MM))
-            slab.apply_translation((0.0, 0.0, -SURFACE_SLAB_MM / 2))
-            slab.apply_transform(primitive.base_frame())
-            pieces.append(slab)
-        else:
-            pieces.append(primitive_mesh(primitive))
-    combined = trimesh.util.concatenate(pieces)
-    assert isinstance(combined, trimesh.Trimesh)
-    return combined
+    if primitive.kind != "surface":
+        return primitive_mesh(primitive)
+    p = primitive.params
+    slab = trimesh.creation.box(extents=(p["length"], p["width"], SURFACE_SLAB_MM))
+    slab.apply_translation((0.0, 0.0, -SURFACE_SLAB_MM / 2))
+    slab.apply_transform(primitive.base_frame())
+    return slab
 
 
 def _build_grid(spec: PartSpec) -> DistanceGrid:
     import trimesh
 
-    mesh = _contact_mesh(spec)
+    mesh = part_mesh(spec, _solid_shape)
     low = np.asarray(mesh.bounds[0]) - CONTACT_MARGIN_MM
     high = np.asarray(mesh.bounds[1]) + CONTACT_MARGIN_MM
     sample_spacing = grid_spacing(low, high) / 2

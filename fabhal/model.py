@@ -22,7 +22,7 @@ from functools import cached_property
 import numpy as np
 
 from fabhal.elaborate import Connection, Endpoint, FlatProgram, PartInstance
-from fabhal.kinematics.frames import Array, frame_matrix, invert
+from fabhal.kinematics.frames import Array, angular_velocities, frame_matrix, invert
 from fabhal.primitives import FRAME_FORMULAS, Dof, FrameFormula, Primitive, alignment_offset
 
 # closure residuals put rotation next to position (mm): the rotation error's
@@ -201,12 +201,15 @@ class Model:
         (angular velocity w, velocity v of the point at the origin) dotted with
         them, w . M + v . F, over the parts it moves."""
         assert fwd.twists is not None
-        twists = fwd.twists
-        angular = np.stack([twists[:, 2, 1], twists[:, 0, 2], twists[:, 1, 0]], axis=1)
         moves = self.layout.moves.astype(float)
-        return np.einsum("ij,ij->i", angular, moves @ moments) + np.einsum(
-            "ij,ij->i", twists[:, :3, 3], moves @ forces
+        return np.einsum("ij,ij->i", angular_velocities(fwd.twists), moves @ moments) + np.einsum(
+            "ij,ij->i", fwd.twists[:, :3, 3], moves @ forces
         )
+
+    def connection_points(self, fwd: Forward) -> Array:
+        """(n_joints, 3) mm, world: where each connection touches (its b side's connector)."""
+        part_b = np.array([j.b.part for j in self.joints], dtype=int)
+        return (fwd.frames[part_b] @ fwd.local[2 * np.arange(len(self.joints)) + 1])[:, :3, 3]
 
     def frame_derivatives(self, fwd: Forward, part: int) -> Array:
         """(n_dofs, 4, 4): d(part-to-world frame of `part`) / dx."""

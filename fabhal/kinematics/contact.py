@@ -124,7 +124,3 @@ def penalty(distance: Array, stiffness: float) -> tuple[float, Array]:
     where negative), and its derivative by each distance."""
     depth = np.maximum(-distance, 0.0)
     return 0.5 * stiffness * float(depth @ depth), -stiffness * depth
-
-
-def _dot(u: Array, v: Array) -> Array:
-    return np.einsum("ij,ij->i", u, v)

@@ -101,6 +101,13 @@ def invert(matrix: ArrayLike) -> Array:
     return out
 
 
+def angular_velocities(twists: ArrayLike) -> Array:
+    """(..., 4, 4) twists [[W, v], [0, 0]] (W skew-symmetric) -> (..., 3) their
+    angular velocities w, with W @ r = w x r."""
+    t = np.asarray(twists, dtype=float)
+    return np.stack([t[..., 2, 1], t[..., 0, 2], t[..., 1, 0]], axis=-1)
+
+
 def rotation_angle_deg(a: ArrayLike, b: ArrayLike) -> Array:
     """Geodesic angle in degrees between the rotations of (..., 4, 4) frames a and b."""
     ra = np.asarray(a, dtype=float)[..., :3, :3]

@@ -15,13 +15,13 @@ point the two parts it joins may meet (within the reach of its primitives).
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass
 
 import numpy as np
 
 from fabhal.kinematics.contact import DistanceGrid, penalty
-from fabhal.kinematics.frames import Array
+from fabhal.kinematics.frames import Array, angular_velocities
 from fabhal.meshes import contact_grid, contact_points
 from fabhal.model import Forward, Model
 from fabhal.primitives import Primitive
@@ -112,11 +112,40 @@ def _distances(model: Model, fwd: Forward, pair: Pair) -> tuple[Array, Array, Ar
     world = pair.points @ frame[:3, :3].T + frame[:3, 3]
     local = (world - environment[:3, 3]) @ environment[:3, :3]
     distance, gradient = pair.grid.sample(local)
-    for joint, reach in pair.joined:
-        j = model.joints[joint]
-        point = (fwd.frames[j.b.part] @ fwd.local[2 * joint + 1])[:3, 3]
-        distance[np.linalg.norm(world - point, axis=1) < reach] = np.inf
+    if pair.joined:
+        connections = model.connection_points(fwd)
+        for joint, reach in pair.joined:
+            distance[np.linalg.norm(world - connections[joint], axis=1) < reach] = np.inf
     return world, distance, gradient @ environment[:3, :3].T
+
+
+def _inside(
+    model: Model, fwd: Forward, pairs: tuple[Pair, ...]
+) -> Iterator[tuple[int, Pair, Array, Array, Array]]:
+    """For each pair with points inside the environment: its index, the pair,
+    and those points (world, (n, 3)), their depths (mm, (n,)) and the way out
+    (the distance's gradient, world, (n, 3))."""
+    for k, pair in enumerate(pairs):
+        world, distance, normal = _distances(model, fwd, pair)
+        inside = distance < 0.0
+        if inside.any():
+            yield k, pair, world[inside], -distance[inside], normal[inside]
+
+
+def _resultant(push: Array, world: Array) -> tuple[Array, Array]:
+    """The force (3,) and its moment about the world origin (3,) of the pushes
+    (n, 3) at the points `world` (n, 3)."""
+    return push.sum(axis=0), np.cross(world, push).sum(axis=0)
+
+
+def _per_part(model: Model, loads: Iterable[tuple[int, Array, Array]]) -> tuple[Array, Array]:
+    """(part, force, moment about the origin) loads summed per part: (P, 3), (P, 3)."""
+    forces = np.zeros((len(model.parts), 3))
+    moments = np.zeros((len(model.parts), 3))
+    for part, force, moment in loads:
+        forces[part] += force
+        moments[part] += moment
+    return forces, moments
 
 
 def with_contacts(
@@ -130,21 +159,15 @@ def with_contacts(
     def total(x: Array) -> tuple[float, Array]:
         value, gradient = energy(x)
         fwd = model.forward(x, with_twists=True)
-        forces = np.zeros((len(model.parts), 3))
-        moments = np.zeros((len(model.parts), 3))
-        for pair in pairs:
-            world, distance, normal = _distances(model, fwd, pair)
-            inside = distance < 0.0
-            if not inside.any():
-                continue
-            spring, slope = penalty(distance[inside], stiffness)
-            pull = slope[:, None] * normal[inside]  # d(spring) / d(point)
+        loads = []
+        for _, pair, world, depth, normal in _inside(model, fwd, pairs):
+            spring, slope = penalty(-depth, stiffness)
             value += spring
-            forces[pair.part] += pull.sum(axis=0)
-            moments[pair.part] += np.cross(world[inside], pull).sum(axis=0)
-        if not forces.any():
+            # d(spring) / d(point) as a load on the part: its generalised force is the gradient
+            loads.append((pair.part, *_resultant(slope[:, None] * normal, world)))
+        if not loads:
             return value, gradient
-        return value, gradient + model.wrench_gradient(fwd, forces, moments)
+        return value, gradient + model.wrench_gradient(fwd, *_per_part(model, loads))
 
     return total
 
@@ -156,17 +179,12 @@ def penetration(model: Model, x: Array, pairs: tuple[Pair, ...]) -> tuple[Array,
     As residuals for step 1 they cost what each point's depth would, squared."""
     fwd = model.forward(x, with_twists=True)
     assert fwd.twists is not None
-    angular = np.stack([fwd.twists[:, 2, 1], fwd.twists[:, 0, 2], fwd.twists[:, 1, 0]], axis=1)
+    angular = angular_velocities(fwd.twists)
     depths, rows = np.zeros(len(pairs)), np.zeros((len(pairs), len(x)))
-    for k, pair in enumerate(pairs):
-        world, distance, normal = _distances(model, fwd, pair)
-        inside = distance < 0.0
-        if not inside.any():
-            continue
-        depth = -distance[inside]
+    for k, pair, world, depth, normal in _inside(model, fwd, pairs):
         depths[k] = float(np.linalg.norm(depth))
         # d(distance) / dx_j = normal . (w_j x p + v_j), for the DoFs that move the part
-        force, moment = depth @ normal[inside], depth @ np.cross(world[inside], normal[inside])
+        force, moment = depth @ normal, depth @ np.cross(world, normal)
         change = fwd.twists[:, :3, 3] @ force + angular @ moment
         rows[k] = -change * model.layout.moves[:, pair.part] / depths[k]
     return depths, rows
@@ -178,31 +196,14 @@ def contacts_at(model: Model, x: Array, pairs: tuple[Pair, ...], weight: float) 
     stiffness = weight / CONTACT_GIVE_MM
     fwd = model.forward(x, with_twists=True)
     found = []
-    for pair in pairs:
-        world, distance, normal = _distances(model, fwd, pair)
-        inside = distance < 0.0
-        if not inside.any():
-            continue
-        depth = -distance[inside]
-        push = 1000.0 * stiffness * depth[:, None] * normal[inside]  # J/mm -> N
-        found.append(
-            Contact(
-                pair.part,
-                pair.environment,
-                push.sum(axis=0),
-                np.cross(world[inside], push).sum(axis=0),
-                (depth @ world[inside]) / depth.sum(),
-                float(depth.max()),
-            )
-        )
+    for _, pair, world, depth, normal in _inside(model, fwd, pairs):
+        push = 1000.0 * stiffness * depth[:, None] * normal  # J/mm -> N
+        force, moment = _resultant(push, world)
+        point = (depth @ world) / depth.sum()
+        found.append(Contact(pair.part, pair.environment, force, moment, point, float(depth.max())))
     return tuple(found)
 
 
 def contact_loads(model: Model, contacts: tuple[Contact, ...]) -> tuple[Array, Array]:
     """(P, 3) N the contacts' forces on each part, and (P, 3) N mm their moments about the world origin."""
-    forces = np.zeros((len(model.parts), 3))
-    moments = np.zeros((len(model.parts), 3))
-    for contact in contacts:
-        forces[contact.part] += contact.force
-        moments[contact.part] += contact.moment
-    return forces, moments
+    return _per_part(model, ((contact.part, contact.force, contact.moment) for contact in contacts))

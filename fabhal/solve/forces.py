@@ -11,7 +11,7 @@ from collections.abc import Iterable
 
 import numpy as np
 
-from fabhal.kinematics.frames import Array
+from fabhal.kinematics.frames import Array, angular_velocities
 from fabhal.kinematics.statics import Wrenches, joint_wrenches
 from fabhal.model import Model
 
@@ -56,11 +56,10 @@ def connection_wrenches(
     the world origin (P, 3) N mm (fabhal/solve/contacts.py)."""
     fwd = model.forward(x, with_twists=True)
     assert fwd.own_twists is not None
-    frames, local = fwd.frames, fwd.local
-    n_joints = len(model.joints)
+    frames = fwd.frames
     part_a = np.array([j.a.part for j in model.joints], dtype=int)
     part_b = np.array([j.b.part for j in model.joints], dtype=int)
-    points = (frames[part_b] @ local[2 * np.arange(n_joints) + 1])[:, :3, 3]
+    points = model.connection_points(fwd)
     world_centres = np.einsum("pij,pj->pi", frames[:, :3, :3], centres) + frames[:, :3, 3]
     loads = np.zeros((len(model.parts), 3))
     loads[:, 2] = -weight_newtons(masses)
@@ -75,7 +74,7 @@ def connection_wrenches(
     joint = np.array([model.variables[i].joint for i in free], dtype=int)
     sign = np.array([1.0 if model.variables[i].side == "a" else -1.0 for i in free])
     twists = fwd.own_twists[free]
-    rotation = np.stack([twists[:, 2, 1], twists[:, 0, 2], twists[:, 1, 0]], axis=1).reshape(-1, 3)
+    rotation = angular_velocities(twists).reshape(-1, 3)
     velocity = twists[:, :3, 3] + np.cross(rotation, points[joint]) if len(free) else np.zeros((0, 3))
     return joint_wrenches(
         part_a,
