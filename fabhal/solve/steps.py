@@ -229,10 +229,12 @@ def fit_target(
     def out_of_the_world(result: Fit) -> Fit:
         """The fit again from where it ended, now kept out of the environment,
         when it passes through it (fitted without: contact residuals switch on
-        and off, and from the start they lead the fit astray)."""
+        and off, and from the start they lead the fit astray). Kept only if its
+        loops are closed and spacings kept (`fit`'s cost is finite)."""
         if not pairs or result.late or not penetration(model, problem.full(result.v), pairs)[0].any():
             return result
-        return replace(result, v=fit(result.v, evaluations, with_contacts=True)[0])
+        v, cost = fit(result.v, evaluations, with_contacts=True)
+        return replace(result, v=v) if np.isfinite(cost) else result  # not at the price of an open loop
 
     probes: list[tuple[float, Array]] = []
     remaining = iter(starts)
