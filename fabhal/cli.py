@@ -82,10 +82,11 @@ examples:
 
 Step 1 moves the parts (through the connections' degrees of freedom) to bring
 the target closest to its requested frame; step 2 lets the assembly settle
-under gravity from there (clips, `fixed` connections and things standing on a
-surface hold; a part slides along a rod only where gravity beats friction).
-If a connection would slide off an open end from every start tried, the
-status is `falls_apart` and the message names the connection; a result that
+under gravity from there (clips and `fixed` connections hold; a part slides
+along a rod, or over the floor it stands on, only where gravity beats
+friction). If a connection would slide off an open end, or an object fall
+over on its floor, from every start tried, the status is `falls_apart` and
+the message names the connection; a result that
 is not verified at rest (E503) has the status `not_at_rest`.
 
 --time-limit bounds the whole command (checking included): at the limit the

@@ -16,7 +16,7 @@ constraint: world(a connector) @ A == world(b connector).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import cached_property
 
 import numpy as np
@@ -55,6 +55,19 @@ class Joint:
 
 
 @dataclass(frozen=True)
+class Standing:
+    """An object standing on a surface (a connection of two surfaces, the larger
+    the floor). Step 1 stands it in the floor's middle (`pinned`); when the hack
+    settles it may slide on the floor, which friction resists, and it topples
+    when its weight acts beyond its base (fabhal/solve/__init__.py)."""
+
+    joint: int
+    floor: str  # the side ("a" or "b") of the larger surface
+    slide: tuple[int, int]  # the floor's t1, t2: where on it the object stands
+    base: tuple[float, float]  # the object's base: its surface's width and length, mm
+
+
+@dataclass(frozen=True)
 class DofVariable:
     name: str  # e.g. "s1.hook2.theta"
     dof: Dof
@@ -77,7 +90,8 @@ class Model:
     closures: tuple[int, ...]  # joints off the tree
     variables: tuple[DofVariable, ...]
     unplaced: tuple[int, ...]  # parts no environment reaches
-    pinned: frozenset[int]  # DoFs that never move: an object resting on a surface stands at its centre
+    pinned: frozenset[int]  # DoFs step 1 never moves: an object on a surface stands at its centre
+    standing: tuple[Standing, ...]  # objects standing on a surface (their slide is free in step 2)
 
     # ---- the DoF vector
 
@@ -489,11 +503,17 @@ def build_model(program: FlatProgram) -> Model:
         offset = alignment_offset(a.primitive, b.primitive, connection.flip)
         held = connection.fixed or _holds_by_itself(a.primitive.kind, b.primitive.kind)
         joints.append(Joint(j, a, b, offset, connection, held))
+    for joint in joints:
+        _keep_on_floor(joint, variables)
     tree, closures, unplaced = _spanning_tree(program, joints)
     pinned = frozenset(
         i for joint in joints for i in (*_resting_surface(joint), *_fixed_rod_line(joint, program.parts))
     )
-    return Model(program, program.parts, tuple(joints), tree, closures, tuple(variables), unplaced, pinned)
+    on_floors = [joint for joint in joints if _floor_and_object(joint) is not None]
+    standing = tuple(_standing(joint) for joint in on_floors if not joint.connection.fixed)
+    return Model(
+        program, program.parts, tuple(joints), tree, closures, tuple(variables), unplaced, pinned, standing
+    )
 
 
 def _connection_key(connection: Connection) -> tuple[tuple[str, str], ...]:
@@ -508,8 +528,9 @@ def _connection_key(connection: Connection) -> tuple[tuple[str, str], ...]:
 
 def _holds_by_itself(first: str, second: str) -> bool:
     """A clip's grip, and anything standing on a surface, stay put when the hack
-    settles: friction holds them (FabHaL models no friction elsewhere; without it
-    a bottle would skate across its basket's floor and tip the basket)."""
+    settles: friction holds them. An object standing on a floor may still slide
+    over it where gravity beats friction (`Standing`: the solver frees that
+    slide and puts Coulomb friction on it); its turn stays."""
     kinds = {first, second}
     return "clip" in kinds or kinds in ({"surface"}, {"surface", "hemisphere"})
 
@@ -527,18 +548,52 @@ def _fixed_rod_line(joint: Joint, parts: tuple[PartInstance, ...]) -> tuple[int,
     )
 
 
-def _resting_surface(joint: Joint) -> tuple[int, ...]:
-    """Where a surface rests on another, the DoFs that place it there: an object
-    stands in the middle of what it rests on (the reference does the same), so
-    the smaller's t1, t2 and s and the larger's t1, t2 stay at their defaults;
-    only the larger's spin s turns it. The solver does not slide a bottle across
-    its basket's floor to chase the target: the floor is not a designed joint."""
+def _floor_and_object(joint: Joint) -> tuple[Side, Side] | None:
+    """Of a connection of two surfaces, the larger (the floor) and the smaller
+    (the object standing on it); None for other connections."""
     a, b = joint.a.primitive, joint.b.primitive
     if a.kind != "surface" or b.kind != "surface":
-        return ()
+        return None
     area = [p.params["width"] * p.params["length"] for p in (a, b)]
-    smaller, larger = (joint.a, joint.b) if area[0] <= area[1] else (joint.b, joint.a)
-    return smaller.dof_indices + larger.dof_indices[:2]
+    return (joint.b, joint.a) if area[0] <= area[1] else (joint.a, joint.b)
+
+
+def _resting_surface(joint: Joint) -> tuple[int, ...]:
+    """Where a surface rests on another, the DoFs that place it there: step 1
+    stands an object in the middle of what it rests on (the reference does the
+    same), so the smaller's t1, t2 and s and the larger's t1, t2 stay at their
+    defaults; only the larger's spin s turns it. The solver does not slide a
+    bottle across its basket's floor to chase the target: the floor is not a
+    designed joint (gravity may slide it there in step 2: `Standing`)."""
+    sides = _floor_and_object(joint)
+    if sides is None:
+        return ()
+    floor, standing = sides
+    return standing.dof_indices + floor.dof_indices[:2]
+
+
+def _keep_on_floor(joint: Joint, variables: list[DofVariable]) -> None:
+    """An object standing on a floor keeps its whole base on it: its centre stays
+    half its width and length from the floor's border (the reference's ranges;
+    the base's turn on the floor is not counted). A floor's border is a wall
+    unless the floor says `slide_off: true` (then the object falls off it)."""
+    sides = _floor_and_object(joint)
+    if sides is None:
+        return
+    floor, standing = sides
+    for i, size in zip(floor.dof_indices[:2], ("width", "length"), strict=True):
+        margin = min(standing.primitive.params[size] / (2.0 * floor.primitive.params[size]), 0.5)
+        variable = variables[i]
+        variables[i] = replace(variable, dof=replace(variable.dof, low=margin, high=1.0 - margin))
+
+
+def _standing(joint: Joint) -> Standing:
+    sides = _floor_and_object(joint)
+    assert sides is not None
+    floor, standing = sides
+    t1, t2 = floor.dof_indices[:2]
+    base = standing.primitive.params
+    return Standing(joint.index, "a" if floor is joint.a else "b", (t1, t2), (base["width"], base["length"]))
 
 
 def _spanning_tree(

@@ -90,6 +90,18 @@ def test_soap_bottle_stands_level_with_two_eye_hooks_and_tilts_with_one() -> Non
     assert one > 20.0  # hung by one handle the basket tips over (the paper's Figure 12)
 
 
+def test_in_the_tipped_basket_the_soap_bottle_slides_down_to_the_walls() -> None:
+    """Hung by one handle the basket's floor slopes far beyond the friction
+    angle (atan 0.3 = 16.7 degrees): the bottle slides down its floor until its
+    base meets the basket's walls, both of the floor's slides on an end of
+    their range, and leans there (no E507: the walls hold it)."""
+    solution = solved("soap_bottle_one_eyehook").solution
+    (standing,) = solution.model.standing
+    assert set(standing.slide) <= set(solution.at_bound)
+    assert tilt_deg(solved("soap_bottle_one_eyehook"), "soap") > 16.7
+    assert solution.status == "solved"
+
+
 def test_closet_basket_hangs_level_between_the_rods() -> None:
     result = solved("closet_basket")
     first, second, basket = (position(result, p) for p in ("hanger.e1", "hanger.e2", "basket"))

@@ -23,7 +23,14 @@ from fabhal.model import Joint, Model
 from fabhal.solve import reach
 from fabhal.solve import target as target_mod
 from fabhal.solve.contacts import Contact, Pair, contact_loads, contact_pairs, contacts_at, with_contacts
-from fabhal.solve.forces import connection_wrenches, friction_slides, normal_forces, weight_newtons
+from fabhal.solve.forces import (
+    Slide,
+    connection_wrenches,
+    friction_slides,
+    normal_forces,
+    slide_dofs,
+    weight_newtons,
+)
 from fabhal.solve.spacing import Spacing, spacing_constraints, spacing_values, spread
 from fabhal.solve.steps import (
     FRICTION,
@@ -71,6 +78,9 @@ FRICTION_AGREEMENT = 0.01
 # this close: a builder's precision (see fabhal/solve/reach.py)
 DISAGREE_MM = 5.0
 DISAGREE_DEG = 5.0
+# a standing object falls over when its floor would have to push beyond the edge
+# of its base by more than this (the base's rim is not a knife edge)
+TOPPLE_MARGIN_MM = 0.5
 
 
 @dataclass(frozen=True)
@@ -104,6 +114,14 @@ class Fall:
 
 
 @dataclass(frozen=True)
+class Topple:
+    joint: int  # the connection of the object and the floor it stands on
+    part: str  # the object that falls over
+    beyond_mm: float  # how far beyond its base's edge the floor would have to push (inf: it lifts off)
+    slope_deg: float  # the floor's slope
+
+
+@dataclass(frozen=True)
 class Solution:
     status: str  # solved, falls_apart, not_at_rest
     model: Model
@@ -115,7 +133,7 @@ class Solution:
     residual: float  # largest loop-closure error, mm
     equilibrium: float | None  # KKT residual after settling, relative; None without gravity
     at_bound: tuple[int, ...]  # DoFs resting on an end of their range
-    falls: tuple[Fall, ...]
+    falls: tuple[Fall | Topple, ...]
     diagnostics: tuple[Diagnostic, ...]
     # (J, 3) N that each connection's a side exerts on its b side, world axes; None without gravity
     forces: Array | None = None
@@ -154,7 +172,8 @@ def solve(model: Model, options: SolveOptions, loop_start: Array | None = None) 
         note = Diagnostic(
             Severity.NOTE,
             "N504",
-            f"from the first start `{fall.part}` slid off here; from another start (seed "
+            f"from the first start `{fall.part}` {'fell over' if isinstance(fall, Topple) else 'slid off'} "
+            f"here; from another start (seed "
             f"{options.seed + k}) the design holds",
             model.joints[fall.joint].connection.span,
             "the result is that configuration; set up by hand, mind how this connection is turned",
@@ -260,7 +279,7 @@ class Settled:
     x: Array
     equilibrium: float | None  # KKT residual, relative to the weight; None without gravity
     at_bound: tuple[int, ...]
-    falls: tuple[Fall, ...]
+    falls: tuple[Fall | Topple, ...]
     forces: Array | None = None  # (J, 3) N each connection carries there (see Solution)
     contacts: tuple[Contact, ...] = ()
 
@@ -270,7 +289,7 @@ def _wrenches(
     x: Array,
     masses: Array,
     centres: Array,
-    slides: list[int],
+    slides: list[Slide],
     contacts: tuple[Contact, ...],
 ) -> Wrenches:
     """What every connection carries at x: load along a motion is carried where
@@ -282,7 +301,7 @@ def _wrenches(
     fixed = {i for i in range(len(model.variables)) if i not in moving}
     ends = {int(problem.free[k]) for k in _resting_ends(problem, x)}
     loads = contact_loads(model, contacts) if contacts else None
-    return connection_wrenches(model, x, masses, centres, fixed | ends | set(slides), loads)
+    return connection_wrenches(model, x, masses, centres, fixed | ends | set(slide_dofs(slides)), loads)
 
 
 def _settle(
@@ -300,12 +319,13 @@ def _settle(
     and verified only, without the stability test and the turn (for comparing)."""
     model = step1.model
     held = {i for j in model.joints if j.held for i in j.a.dof_indices + j.b.dof_indices}
-    movable = np.array([i for i in step1.free if i not in held], dtype=int)
+    on_floors = {i for standing in model.standing for i in standing.slide}  # gravity may slide them
+    movable = np.array(sorted({int(i) for i in step1.free if i not in held} | on_floors), dtype=int)
     step2 = Problem(model, movable, x.copy(), step1.spacing, step1.deadline)
     weight = _weight(masses)
     gravity = with_contacts(model, potential(model, masses, centres), pairs, weight)
     moving = set(movable.tolist())
-    slides = [i for i in friction_slides(model) if i in moving]
+    slides = [slide for slide in friction_slides(model) if set(slide.dofs) <= moving]
     origin = x
 
     def with_friction_at(at: Array) -> tuple[Callable[[Array], tuple[float, Array]], Array]:
@@ -339,20 +359,59 @@ def _settle(
         x = step2.full(settle(step2, energy, x[movable], at_rest).x)
         equilibrium, at_bound, falls = _verify(step2, energy, x, masses, holding)
     contacts = contacts_at(model, x, pairs, weight)
-    forces = _wrenches(step2, x, masses, centres, slides, contacts).forces
-    return Settled(x, equilibrium, at_bound, falls, forces, contacts)
+    wrenches = _wrenches(step2, x, masses, centres, slides, contacts)
+    topples = _topples(model, x, wrenches, set(at_bound))
+    return Settled(x, equilibrium, at_bound, (*falls, *topples), wrenches.forces, contacts)
+
+
+def _topples(model: Model, x: Array, wrenches: Wrenches, at_bound: set[int]) -> tuple[Topple, ...]:
+    """The standing objects that would fall over: where the floor's push would
+    have to act outside the object's base. A floor carries an object by a
+    pressure spread over the base; its resultant, N along the floor's normal n,
+    acts at the centre of pressure c (from the contact point), and the moment it
+    carries about the contact point is M = c x N n, so c = n x M / N. Within the
+    base, the object stands; beyond its edge, no pressure can balance it and it
+    tips over that edge. An object pushed against its floor's wall (its slide on
+    an end of its range) leans on the wall and is not tested."""
+    frames = model.part_frames(x)
+    topples = []
+    for standing in model.standing:
+        if at_bound & set(standing.slide):
+            continue
+        joint = model.joints[standing.joint]
+        floor, thing = (joint.a, joint.b) if standing.floor == "a" else (joint.b, joint.a)
+        sign = 1.0 if standing.floor == "a" else -1.0  # the wrench is what a exerts on b
+        force, moment = sign * wrenches.forces[joint.index], sign * wrenches.moments[joint.index]
+        normal = model.connector_frame(floor, x, frames)[:3, 2]
+        base = model.connector_frame(thing, x, frames)[:3, :2]  # along the base's length (x), width (y)
+        pressing = float(force @ normal)
+        width, length = standing.base
+        if pressing <= 0.0:
+            beyond = float("inf")  # the floor would have to pull: it lifts off
+        else:
+            centre = base.T @ np.cross(normal, moment) / pressing
+            beyond = float(np.max(np.abs(centre) - (length / 2.0, width / 2.0)))
+        if beyond > TOPPLE_MARGIN_MM:
+            slope = float(np.degrees(np.arccos(np.clip(normal[2], -1.0, 1.0))))
+            topples.append(Topple(joint.index, model.parts[thing.part].name, beyond, slope))
+    return tuple(topples)
 
 
 def _friction_left(
-    model: Model, slides: list[int], resistance: Array, x: Array, origin: Array
+    model: Model, slides: list[Slide], resistance: Array, x: Array, origin: Array
 ) -> dict[int, float]:
     """The static friction (joules per mm) each slide can still give beyond what
     the settle's friction term already exerts at x: all of it where the slide has
-    not moved, none once it slides (the term then pulls with its full resistance)."""
-    index = np.array(slides, dtype=int)
-    moved = (x[index] - origin[index]) * mm_per_unit(model)[index]
-    exerted = np.abs(moved) / np.sqrt(moved**2 + FRICTION_SMOOTHING_MM**2)
-    return dict(zip(slides, resistance * (1.0 - exerted), strict=True))
+    not moved, none once it slides (the term then pulls with its full resistance);
+    by DoF (a floor's two DoFs share theirs)."""
+    lengths = mm_per_unit(model)
+    holding = {}
+    for slide, limit in zip(slides, resistance, strict=True):
+        index = list(slide.dofs)
+        moved = float(np.linalg.norm((x[index] - origin[index]) * lengths[index]))
+        exerted = moved / np.sqrt(moved**2 + FRICTION_SMOOTHING_MM**2)
+        holding.update(dict.fromkeys(slide.dofs, limit * (1.0 - exerted)))
+    return holding
 
 
 def _at_rest(settled: Settled | Solution) -> bool:
@@ -652,7 +711,9 @@ def _falling_part(model: Model, joint: Joint, side: str) -> str:
     return model.parts[other.part].name
 
 
-def _fall_diagnostic(model: Model, fall: Fall) -> Diagnostic:
+def _fall_diagnostic(model: Model, fall: Fall | Topple) -> Diagnostic:
+    if isinstance(fall, Topple):
+        return _topple_diagnostic(model, fall)
     variable = model.variables[fall.dof]
     joint = model.joints[fall.joint]
     end = joint.connection.a if variable.side == "a" else joint.connection.b
@@ -672,4 +733,23 @@ def _fall_diagnostic(model: Model, fall: Fall) -> Diagnostic:
     )
 
 
-__all__ = ["Fall", "NumericFailure", "Solution", "SolveOptions", "solve"]
+def _topple_diagnostic(model: Model, topple: Topple) -> Diagnostic:
+    joint = model.joints[topple.joint]
+    floor = next(s for s in model.standing if s.joint == topple.joint).floor
+    on = joint.connection.a if floor == "a" else joint.connection.b
+    why = (
+        "the floor would have to pull it down: it lifts off"
+        if not np.isfinite(topple.beyond_mm)
+        else f"its weight acts {topple.beyond_mm:.0f} mm beyond the edge of its base"
+    )
+    return error(
+        "E507",
+        f"the assembly falls apart here: `{topple.part}` falls over on `{on}` ({why}; "
+        f"the floor slopes {topple.slope_deg:.0f} degrees)",
+        joint.connection.span,
+        "level the floor (hang it from a second point), stand the object against the floor's side, "
+        "or stand a lower or wider one there",
+    )
+
+
+__all__ = ["Fall", "NumericFailure", "Solution", "SolveOptions", "Topple", "solve"]

@@ -8,6 +8,7 @@ and weights from the model's forward kinematics.
 from __future__ import annotations
 
 from collections.abc import Iterable
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -24,10 +25,21 @@ def weight_newtons(masses: Array) -> Array:
     return masses / 1000.0 * GRAVITY
 
 
-def friction_slides(model: Model) -> list[int]:
-    """The DoFs that slide a part along a rod, tube or edge and that friction
-    resists: the first DoF (`t`) of such a side, unless pinned or held."""
-    slides = []
+@dataclass(frozen=True)
+class Slide:
+    """A motion that Coulomb friction resists: a part sliding along a rod, tube
+    or edge (one DoF: the force across the line presses the contact), or an
+    object sliding over the floor it stands on (two DoFs: the force into the
+    floor presses it)."""
+
+    dofs: tuple[int, ...]
+    joint: int
+
+
+def friction_slides(model: Model) -> list[Slide]:
+    """The slides friction resists: the first DoF (`t`) of a rod, tube or edge
+    side, unless pinned or held; and where each standing object is on its floor."""
+    slides = [Slide(standing.slide, standing.joint) for standing in model.standing]
     for joint in model.joints:
         if joint.held:
             continue
@@ -35,8 +47,12 @@ def friction_slides(model: Model) -> list[int]:
             if side.primitive.kind in SLIDING_KINDS and side.dof_indices:
                 t = side.dof_indices[0]
                 if model.variables[t].dof.name == "t" and t not in model.pinned:
-                    slides.append(t)
-    return slides
+                    slides.append(Slide((t,), joint.index))
+    return sorted(slides, key=lambda slide: slide.dofs)
+
+
+def slide_dofs(slides: Iterable[Slide]) -> list[int]:
+    return [i for slide in slides for i in slide.dofs]
 
 
 def connection_wrenches(
@@ -90,21 +106,22 @@ def connection_wrenches(
     )
 
 
-def normal_forces(model: Model, x: Array, wrenches: Wrenches, slides: list[int]) -> Array:
+def normal_forces(model: Model, x: Array, wrenches: Wrenches, slides: list[Slide]) -> Array:
     """(S,) N: at each slide, the force across it (pressing the contact
-    together), from what its connection carries less the part along the slide."""
+    together): what its connection carries less the part along the slide's
+    directions (a line, or a floor's plane)."""
     if not slides:
         return np.zeros(0)
     fwd = model.forward(x, with_twists=True)
     assert fwd.own_twists is not None
-    index = np.array(slides, dtype=int)
-    joints = np.array([model.variables[i].joint for i in slides], dtype=int)
-    sign = np.array([1.0 if model.variables[i].side == "a" else -1.0 for i in slides])
-    direction = sign[:, None] * fwd.own_twists[index, :3, 3]  # a pure translation along the primitive
-    direction /= np.linalg.norm(direction, axis=1, keepdims=True)
-    force = wrenches.forces[joints]
-    along = np.einsum("ij,ij->i", force, direction)
-    return np.linalg.norm(force - along[:, None] * direction, axis=1)
+    normal = np.zeros(len(slides))
+    for k, slide in enumerate(slides):
+        # each DoF of a slide is a pure translation along its primitive
+        directions = fwd.own_twists[list(slide.dofs), :3, 3]
+        basis = np.linalg.qr(directions.T)[0]  # orthonormal, spanning the slide's directions
+        force = wrenches.forces[slide.joint]
+        normal[k] = float(np.linalg.norm(force - basis @ (basis.T @ force)))
+    return normal
 
 
 def _placed(model: Model) -> Array:

@@ -36,7 +36,7 @@ from fabhal.optimize import (
 )
 from fabhal.solve import target as target_mod
 from fabhal.solve.contacts import Pair, penetration
-from fabhal.solve.forces import weight_newtons
+from fabhal.solve.forces import Slide, slide_dofs, weight_newtons
 from fabhal.solve.spacing import Spacing, spacing_jacobian, spacing_values
 
 # static friction coefficient of a part sliding along a rod, tube or edge (steel, plastic, wood)
@@ -307,32 +307,36 @@ def potential(model: Model, masses: Array, centres: Array) -> Callable[[Array], 
 def with_friction(
     model: Model,
     energy: Callable[[Array], tuple[float, Array]],
-    slides: list[int],
+    slides: list[Slide],
     resistance: Array,
     origin: Array,
 ) -> Callable[[Array], tuple[float, Array]]:
-    """The energy plus static friction on the slides along rods, tubes and edges.
+    """The energy plus static friction on the slides (along rods, tubes and
+    edges; over a floor).
 
     Quasi-static Coulomb friction as a dissipation potential (the incremental
     energy of rate-independent friction): sliding s mm from `origin` costs
     resistance x |s| (joules per mm: FRICTION x the contact's normal force),
-    smoothed over FRICTION_SMOOTHING_MM. So a slide moves only where the force
-    along it beats FRICTION x the force across it: a hook on a rod sloping more
-    than atan(0.3) = 16.7 degrees slides. Turning DoFs (a hook rolling round its
-    rod) stay frictionless. The normal forces come from the statics of the
-    settled assembly (fabhal/solve/forces.py), not from the order of lines."""
+    smoothed over FRICTION_SMOOTHING_MM; over a floor |s| is the length of the
+    two-way slide, so friction resists every direction alike. So a slide moves
+    only where the force along it beats FRICTION x the force across it: a hook
+    on a rod sloping more than atan(0.3) = 16.7 degrees slides, and so does a
+    bottle on a floor as steep. Turning DoFs (a hook rolling round its rod) stay
+    frictionless. The normal forces come from the statics of the settled
+    assembly (fabhal/solve/forces.py), not from the order of lines."""
     if not slides:
         return energy
-    index = np.array(slides)
+    index = np.array(slide_dofs(slides), dtype=int)
+    group = np.repeat(np.arange(len(slides)), [len(slide.dofs) for slide in slides])
     lengths = mm_per_unit(model)[index]
     start = origin[index].copy()
 
     def total(x: Array) -> tuple[float, Array]:
         value, gradient = energy(x)
         moved = (x[index] - start) * lengths
-        root = np.sqrt(moved**2 + FRICTION_SMOOTHING_MM**2)
+        root = np.sqrt(np.bincount(group, moved**2, len(slides)) + FRICTION_SMOOTHING_MM**2)
         gradient = gradient.copy()
-        gradient[index] += resistance * moved / root * lengths
+        gradient[index] += (resistance / root)[group] * moved * lengths
         return value + float(resistance @ (root - FRICTION_SMOOTHING_MM)), gradient
 
     return total
@@ -387,6 +391,9 @@ def _free_objective(problem: Problem, energy: Callable[[Array], tuple[float, Arr
     return objective
 
 
+SURFACE_DIMENSION = {"t1": "width", "t2": "length"}
+
+
 def mm_per_unit(model: Model) -> Array:
     """How far a connection point moves per unit of each DoF: a fraction t moves
     along the primitive's length (or width, height); an angle moves about 1 mm
@@ -396,7 +403,10 @@ def mm_per_unit(model: Model) -> Array:
         if not variable.dof.periodic and variable.dof.high <= 1.0:
             joint = model.joints[variable.joint]
             primitive = (joint.a if variable.side == "a" else joint.b).primitive
-            lengths = [primitive.params.get(k, 0.0) for k in ("length", "height", "width")]
+            if variable.dof.name in SURFACE_DIMENSION:  # a surface's t1 runs across its width, t2 along it
+                lengths = [primitive.params[SURFACE_DIMENSION[variable.dof.name]]]
+            else:
+                lengths = [primitive.params.get(k, 0.0) for k in ("length", "height", "width")]
             scales[i] = max(max(lengths), 1.0)
     return scales
 
