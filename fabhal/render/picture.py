@@ -98,17 +98,22 @@ def _view(scene: Scene, focus: Array, view: str, width: int, height: int) -> Any
     from PIL import Image, ImageDraw
 
     camera = camera_for(view, focus, width, height)
-    solid = [item for item in scene.items if item.opacity >= 1.0]
+    # contacts lie where two bodies meet, hidden by one of them: drawn over everything
+    overlays = [item for item in scene.items if item.role == "contact"]
+    solid = [item for item in scene.items if item.opacity >= 1.0 and item.role != "contact"]
     ghosts = [item for item in scene.items if item.opacity < 1.0]
     image, owner = _shade(solid, camera, width, height)
     for ghost in ghosts:  # see-through: blended over everything, wherever it projects
         ghost_image, ghost_owner = _shade([ghost], camera, width, height)
         covered = ghost_owner >= 0
         image[covered] = (1 - ghost.opacity) * image[covered] + ghost.opacity * ghost_image[covered]
+    overlay_image, overlay_owner = _shade(overlays, camera, width, height)
+    image[overlay_owner >= 0] = overlay_image[overlay_owner >= 0]
     picture = Image.fromarray(np.clip(image, 0, 255).astype(np.uint8))
     draw = ImageDraw.Draw(picture)
     _target_axes(draw, scene, camera, focus)
-    _labels(draw, solid, owner, camera)
+    taken = _labels(draw, solid, owner, camera)
+    _labels(draw, overlays, overlay_owner, camera, taken)
     title_box = draw.textbbox((12, 10), VIEW_TITLES[view], font=_font(15))
     draw.rectangle(
         [title_box[0] - 4, title_box[1] - 3, title_box[2] + 4, title_box[3] + 3], fill=(255, 255, 255)
@@ -176,10 +181,20 @@ def _target_axes(draw: ImageDraw.ImageDraw, scene: Scene, camera: Camera, focus:
     draw.text(tuple(end + 6), "requested", fill=(60, 60, 60), font=font)
 
 
-def _labels(draw: ImageDraw.ImageDraw, items: list[SceneItem], owner: np.ndarray, camera: Camera) -> None:
-    """Each visible part's name beside its visible pixels, with a leader line; labels never overlap."""
+Box = tuple[float, float, float, float]
+
+
+def _labels(
+    draw: ImageDraw.ImageDraw,
+    items: list[SceneItem],
+    owner: np.ndarray,
+    camera: Camera,
+    taken: list[Box] | None = None,
+) -> list[Box]:
+    """Each visible part's name beside its visible pixels, with a leader line;
+    labels never overlap each other or those in `taken`. Returns every label's box."""
     font = _font(14)
-    taken: list[tuple[float, float, float, float]] = []
+    taken = [] if taken is None else taken
     for k, item in enumerate(items):
         if item.role in ("environment", "primitive"):
             continue
@@ -196,6 +211,7 @@ def _labels(draw: ImageDraw.ImageDraw, items: list[SceneItem], owner: np.ndarray
         draw.line([tuple(anchor), (x, y + h / 2)], fill=(80, 80, 80), width=1)
         draw.rectangle([x, y, x + w, y + h], fill=(255, 255, 255), outline=(150, 150, 150))
         draw.text((x + 4, y + 2), item.name, fill=(20, 20, 20), font=font)
+    return taken
 
 
 def _header(draw: ImageDraw.ImageDraw, scene: Scene, summary: dict[str, Any], width: int) -> None:
@@ -212,11 +228,13 @@ def _header(draw: ImageDraw.ImageDraw, scene: Scene, summary: dict[str, Any], wi
         )
     draw.text((16, 38), status, fill=STATUS_COLORS.get(scene.status, (120, 120, 120)), font=_font(16))
     draw.text((130, 38), detail, fill=(70, 70, 70), font=_font(16))
-    legend = (
+    legend: list[tuple[str, tuple[int, int, int] | None]] = [
         ("environment", (158, 160, 168)),
         ("target", (245, 140, 31)),
-        ("requested target axes: x y z", None),
-    )
+    ]
+    if any(item.role == "contact" for item in scene.items):
+        legend.append(("contact, force on the part", (204, 38, 178)))
+    legend.append(("requested target axes: x y z", None))
     font = _font(14)
     widths = [int(draw.textlength(text, font=font)) + (18 if color else 0) + 18 for text, color in legend]
     # on the title's row, right-aligned; left out where it would run into the title

@@ -15,12 +15,14 @@ from fabhal.report.solution import hanging_lines
 
 if TYPE_CHECKING:
     from fabhal.solve import Solution
+    from fabhal.solve.contacts import Contact
 
 FORMATS = (".glb", ".obj", ".stl", ".png", ".html")
 
 ENVIRONMENT_COLOR = (0.62, 0.63, 0.66)
 TARGET_COLOR = (0.96, 0.55, 0.12)
 FAILURE_COLOR = (0.86, 0.1, 0.1)
+CONTACT_COLOR = (0.8, 0.15, 0.7)  # magenta: no part takes it
 # parts that are neither: distinct, calm hues (Tableau-like), cycled
 PART_COLORS = (
     (0.27, 0.51, 0.71),
@@ -33,6 +35,11 @@ PART_COLORS = (
 )
 GHOST_OPACITY = 0.35
 FAILURE_MARK_MM = 8.0  # radius of the sphere marking a connection that comes apart
+CONTACT_MARK_MM = 5.0  # radius of the dot where a part rests on the environment
+# the arrow of a contact's force: this long per newton (the gallery's 1-10 N contacts
+# draw 10-100 mm, the size of the parts), within these lengths
+CONTACT_ARROW_MM_PER_N = 10.0
+CONTACT_ARROW_MM = (15.0, 120.0)
 
 
 @dataclass(frozen=True)
@@ -46,7 +53,7 @@ class RenderOptions:
 @dataclass(frozen=True)
 class SceneItem:
     name: str  # the program's part name, `part.primitive`, or a marker's description
-    role: str  # environment, target, part, primitive, requested, failure
+    role: str  # environment, target, part, primitive, requested, failure, contact
     vertices: Array  # (n, 3) in the item's own frame
     faces: np.ndarray  # (m, 3)
     transform: Array  # (4, 4) item frame -> world
@@ -82,6 +89,7 @@ def build_scene(solution: Solution, title: str, options: RenderOptions) -> Scene
                 shape = primitive_mesh(primitive)
                 name = f"{part.name}.{primitive.name}"
                 items.append(_item(name, "primitive", shape, solution.frames[i], (0.95, 0.85, 0.2)))
+    items.extend(_contact_marker(solution, contact) for contact in solution.contacts)
     if options.show_requested:
         requested_part = solution.goal.requested @ invert(solution.goal.local())
         ghost = part_mesh(model.parts[target_part].spec)
@@ -131,6 +139,38 @@ def _item(
         color,
         opacity,
     )
+
+
+def _contact_marker(solution: Solution, contact: Contact) -> SceneItem:
+    """A dot where a part rests on the environment and an arrow from it along
+    the force the environment exerts on the part, as long as that force is large."""
+    import trimesh
+
+    force = np.asarray(contact.force, dtype=float)
+    newtons = float(np.linalg.norm(force))
+    direction = force / newtons if newtons > 0.0 else np.array([0.0, 0.0, 1.0])
+    length = float(np.clip(CONTACT_ARROW_MM_PER_N * newtons, *CONTACT_ARROW_MM))
+    point = np.asarray(contact.point, dtype=float)
+    dot = trimesh.creation.icosphere(subdivisions=2, radius=CONTACT_MARK_MM)
+    neck = direction * length * 0.75  # the shaft three quarters, the head the rest
+    shaft = trimesh.creation.cylinder(radius=1.5, segment=(np.zeros(3), neck), sections=10)
+    head = trimesh.creation.cone(radius=4.0, height=length * 0.25, sections=12)
+    head.apply_transform(_along(direction, neck))
+    marker = trimesh.util.concatenate([dot, shaft, head])
+    part, holder = (solution.model.parts[i].name for i in (contact.part, contact.environment))
+    where = np.eye(4)
+    where[:3, 3] = point
+    return _item(f"{part} rests on {holder} ({newtons:.1f} N)", "contact", marker, where, CONTACT_COLOR)
+
+
+def _along(direction: Array, origin: Array) -> Array:
+    """A frame at `origin` whose z axis is `direction` (a unit vector)."""
+    helper = np.array([1.0, 0.0, 0.0]) if abs(direction[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    x = np.cross(helper, direction)
+    x /= np.linalg.norm(x)
+    frame = np.eye(4)
+    frame[:3, 0], frame[:3, 1], frame[:3, 2], frame[:3, 3] = x, np.cross(direction, x), direction, origin
+    return frame
 
 
 def _failure_marker(solution: Solution, joint_index: int, part: str) -> SceneItem:

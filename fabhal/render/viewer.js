@@ -178,9 +178,15 @@
     const toCamera = [Math.cos(camera.pitch) * Math.cos(camera.yaw), Math.cos(camera.pitch) * Math.sin(camera.yaw), Math.sin(camera.pitch)];
     gl.uniform3fv(where.light, normalize(toCamera.map((v, k) => v + [0.2, 0.2, 0.5][k])));
     gl.uniform1i(where.picking, picking ? 1 : 0);
-    const solid = meshes.filter((m) => m.item.opacity >= 1), ghosts = meshes.filter((m) => m.item.opacity < 1);
+    // contacts lie where two bodies meet, hidden by one of them: drawn over everything
+    const overlays = meshes.filter((m) => m.item.role === "contact");
+    const solid = meshes.filter((m) => m.item.opacity >= 1 && m.item.role !== "contact");
+    const ghosts = meshes.filter((m) => m.item.opacity < 1);
     gl.disable(gl.BLEND);
     for (const mesh of solid) drawMesh(mesh, picking);
+    gl.disable(gl.DEPTH_TEST);
+    for (const mesh of overlays) drawMesh(mesh, picking);
+    gl.enable(gl.DEPTH_TEST);
     if (!picking) {
       gl.enable(gl.BLEND);
       gl.blendFunc(gl.SRC_ALPHA, gl.ONE_MINUS_SRC_ALPHA);

@@ -83,6 +83,45 @@ def test_png_has_the_requested_size_and_shows_the_hack(mug: Any, tmp_path: Path)
     assert len(np.unique(pixels, axis=0)) > 100  # shaded, not flat fills
 
 
+def test_contacts_are_drawn_where_parts_rest_on_the_environment(tmp_path: Path) -> None:
+    """The paper towel roll rests against the wall: the picture marks the
+    contact (magenta, drawn over the bodies that hide it) at the contact's
+    point, with an arrow along the wall's push on the roll, and the 3D file
+    has it as a named node."""
+    import trimesh
+    from PIL import Image
+
+    from fabhal.render.picture import camera_for
+    from fabhal.render.scene import CONTACT_COLOR, build_scene
+
+    result = api.solve(REPO / "programs" / "paper_towel_holder.fhl")
+    (contact,) = result.solution.contacts
+    scene = build_scene(result.solution, "towel", RenderOptions())
+    (marker,) = [item for item in scene.items if item.role == "contact"]
+    assert marker.name == f"roll rests on walls ({np.linalg.norm(contact.force):.1f} N)"
+    np.testing.assert_allclose(marker.transform[:3, 3], contact.point)
+    # the arrow's tip lies along the force from the contact point
+    tip = marker.world_vertices()[np.argmax((marker.world_vertices() - contact.point) @ contact.force)]
+    direction = (tip - contact.point) / np.linalg.norm(tip - contact.point)
+    assert direction @ (contact.force / np.linalg.norm(contact.force)) > 0.99
+
+    path = tmp_path / "towel.png"
+    render(result.solution, "towel", path, RenderOptions(size=(400, 300)), to_dict(result, "towel"))
+    pixels = np.asarray(Image.open(io.BytesIO(path.read_bytes())).convert("RGB")).astype(int)[HEADER:]
+    magenta = np.abs(pixels - np.array(CONTACT_COLOR) * 255).sum(axis=2) < 200
+    assert magenta.sum() > 20  # shaded, so not exactly the colour; a few dozen pixels at 400 x 300
+    focus = np.concatenate([item.world_vertices() for item in scene.items if item.role != "environment"])
+    x, y = camera_for("iso", np.vstack([focus, scene.requested[None, :3, 3]]), 400, 300).project(
+        contact.point[None]
+    )[0, :2]
+    rows, cols = np.nonzero(magenta)
+    assert np.min(np.hypot(cols - x, rows - y)) < 3.0  # pixels: the dot sits on the contact point
+
+    glb = tmp_path / "towel.glb"
+    render(result.solution, "towel", glb, RenderOptions(), to_dict(result, "towel"))
+    assert marker.name in set(trimesh.load(str(glb)).graph.nodes_geometry)
+
+
 # ---------------------------------------------------------------- the browser viewer
 
 CHROMIUM_FLAGS = [
