@@ -505,9 +505,12 @@ def build_model(program: FlatProgram) -> Model:
         joints.append(Joint(j, a, b, offset, connection, held))
     for joint in joints:
         _keep_on_floor(joint, variables)
+        _keep_threaded(joint, variables)
     tree, closures, unplaced = _spanning_tree(program, joints)
     pinned = frozenset(
-        i for joint in joints for i in (*_resting_surface(joint), *_fixed_rod_line(joint, program.parts))
+        i
+        for joint in joints
+        for i in (*_resting_surface(joint), *_fixed_rod_line(joint, program.parts), *_threaded_centre(joint))
     )
     on_floors = [joint for joint in joints if _floor_and_object(joint) is not None]
     standing = tuple(_standing(joint) for joint in on_floors if not joint.connection.fixed)
@@ -585,6 +588,37 @@ def _keep_on_floor(joint: Joint, variables: list[DofVariable]) -> None:
         margin = min(standing.primitive.params[size] / (2.0 * floor.primitive.params[size]), 0.5)
         variable = variables[i]
         variables[i] = replace(variable, dof=replace(variable.dof, low=margin, high=1.0 - margin))
+
+
+COAXIAL = ({"TubeCtl", "Tube"}, {"TubeCtl", "Rod"})
+
+
+def threaded(joint: Joint) -> tuple[Side, Side] | None:
+    """Of a sleeve on a rod or tube (a centre-line tube round the other: a towel
+    roll on a broom handle), the shorter and the longer; None for other
+    connections. Their two slides would say one thing twice (where the one
+    lies along the other), so the shorter is held at its middle (`_threaded_centre`)
+    and the longer's slide keeps it whole on it (`_keep_threaded`), as the
+    reference does for these pairings."""
+    if {joint.a.primitive.variant, joint.b.primitive.variant} not in COAXIAL:
+        return None
+    lengths = [side.primitive.params["length"] for side in (joint.a, joint.b)]
+    return (joint.a, joint.b) if lengths[0] <= lengths[1] else (joint.b, joint.a)
+
+
+def _threaded_centre(joint: Joint) -> tuple[int, ...]:
+    sides = threaded(joint)
+    return () if sides is None else (sides[0].dof_indices[0],)
+
+
+def _keep_threaded(joint: Joint, variables: list[DofVariable]) -> None:
+    sides = threaded(joint)
+    if sides is None:
+        return
+    shorter, longer = sides
+    margin = shorter.primitive.params["length"] / (2.0 * longer.primitive.params["length"])
+    i = longer.dof_indices[0]
+    variables[i] = replace(variables[i], dof=replace(variables[i].dof, low=margin, high=1.0 - margin))
 
 
 def _standing(joint: Joint) -> Standing:

@@ -612,9 +612,9 @@ def _solve_spd(matrix: Array, rhs: Array) -> Array | None:
     """matrix^-1 rhs for a positive definite matrix; None for any other."""
     try:
         np.linalg.cholesky(matrix)  # the test of definiteness; numpy has no triangular solve
-    except np.linalg.LinAlgError:
+        return np.linalg.solve(matrix, rhs)
+    except np.linalg.LinAlgError:  # not definite, or definite only to rounding (a pivot of 1e-17)
         return None
-    return np.linalg.solve(matrix, rhs)
 
 
 def _longest(problem: _Scaled, u: Array, step: Array) -> float:

@@ -157,7 +157,7 @@ def _contact_marker(solution: Solution, contact: Contact) -> SceneItem:
     head = trimesh.creation.cone(radius=4.0, height=length * 0.25, sections=12)
     head.apply_transform(_along(direction, neck))
     marker = trimesh.util.concatenate([dot, shaft, head])
-    part, holder = (solution.model.parts[i].name for i in (contact.part, contact.environment))
+    part, holder = (solution.model.parts[i].name for i in (contact.part, contact.rests_on))
     where = np.eye(4)
     where[:3, 3] = point
     return _item(f"{part} rests on {holder} ({newtons:.1f} N)", "contact", marker, where, CONTACT_COLOR)

@@ -107,7 +107,7 @@ def _solution(solution: Solution) -> dict[str, Any]:
     contacts = [  # where the environment holds a part by touching it (fabhal/solve/contacts.py)
         {
             "part": model.parts[contact.part].name,
-            "rests_on": model.parts[contact.environment].name,
+            "rests_on": model.parts[contact.rests_on].name,
             "point": _numbers(contact.point, 2),
             "force_n": _numbers(contact.force),
             "carries_n": round(float(np.linalg.norm(contact.force)), 4),
@@ -162,8 +162,10 @@ def renderables(result: SolveOutcome, program: str) -> list[RenderableType]:
     )
     head.append(f" is {position_error:.1f} mm and {rotation_error:.1f} degrees from where it was asked to be")
     head.append(f"\nloops closed to {solution.residual:.1e} mm; potential energy {solution.energy:.3f} J")
-    if solution.equilibrium is not None:
+    if solution.equilibrium is not None and np.isfinite(solution.equilibrium):
         head.append(f"; at rest to {solution.equilibrium:.1e} of its weight")
+    elif solution.equilibrium is not None:
+        head.append("; not settled under gravity (no time left)")
     timing = result.timing
     head.append(
         f"\n{timing['parse_s'] + timing['check_s'] + timing['solve_s']:.2f} s "
@@ -182,7 +184,7 @@ def renderables(result: SolveOutcome, program: str) -> list[RenderableType]:
     for depth, line in hanging_lines(solution.model, solution.forces):
         chain.append("  " * (depth + 1) + line + "\n")
     for contact in solution.contacts:
-        resting, holder = (solution.model.parts[i].name for i in (contact.part, contact.environment))
+        resting, holder = (solution.model.parts[i].name for i in (contact.part, contact.rests_on))
         chain.append(
             f"  {resting}  rests against  {holder}  at {_triple(_numbers(contact.point, 1))}"
             f"  ({float(np.linalg.norm(contact.force)):.2f} N)\n"

@@ -22,7 +22,7 @@ from fabhal.meshes import mass_properties
 from fabhal.model import Joint, Model
 from fabhal.solve import reach
 from fabhal.solve import target as target_mod
-from fabhal.solve.contacts import Contact, Pair, contact_loads, contact_pairs, contacts_at, with_contacts
+from fabhal.solve.contacts import Contact, Pairs, contact_loads, contact_pairs, contacts_at, with_contacts
 from fabhal.solve.forces import (
     Slide,
     connection_wrenches,
@@ -46,6 +46,9 @@ from fabhal.solve.steps import (
 )
 
 LOOP_KEPT_MM = 1e-3  # a result whose loops are open by more is never solved (E506)
+# a result with a part this deep in another is never solved (E508): five times the
+# contact springs' give under the assembly's whole weight (fabhal/solve/contacts.py)
+OVERLAP_KEPT_MM = 1.0
 EXTRA_STARTS = 3  # seeded random starts for step 1, besides the spread-out defaults
 # a random start whose loops take longer to close than this is dropped: on the gallery
 # those that close do so within 26 evaluations, and one that fails spends the whole budget
@@ -191,6 +194,11 @@ def _solve_once(model: Model, options: SolveOptions, loop_start: Array | None) -
     options.report("step 1: bringing the target to its frame")
     pairs = contact_pairs(model)
     fit = fit_target(step1, goal, starts, pairs)
+    # the settle's contact springs: with the environment only. Between two movable
+    # parts they made the settles crawl (grazing contacts in a loop: the reading
+    # nook took 5000 evaluations instead of 300); step 1 keeps the parts apart and
+    # the result is checked for parts inside each other (E508)
+    world = pairs.against({i for i, part in enumerate(model.parts) if part.environment})
     x = step1.full(fit.v)
     # step 1 moves parts without their masses: only its frames can break
     _require_finite(
@@ -208,20 +216,25 @@ def _solve_once(model: Model, options: SolveOptions, loop_start: Array | None) -
     if options.gravity:
         options.report("step 2: settling under gravity")
         _require_finite(model, x, masses, centres, "step 2 (settling under gravity)")
-        settled = _settle(step1, x, masses, centres, goal, pairs)
+        # out of time: step 1's result as it is, not verified at rest (W502 says why)
+        settled = (
+            Settled(x, np.inf, (), ())
+            if step1.out_of_time()
+            else _settle(step1, x, masses, centres, goal, world)
+        )
         if fit.runner_up is not None and not step1.out_of_time():
             options.report("step 2: settling from another start")
             start = step1.full(fit.runner_up)
             # a plain settle to compare; the stability test and the turn only if it wins
-            other = _settle(step1, start, masses, centres, goal, pairs, thorough=False)
+            other = _settle(step1, start, masses, centres, goal, world, thorough=False)
             settled, disagreement = _pick(
                 model, goal, settled, other, lambda s: _energy(model.part_frames(s.x), masses, centres)
             )
             if settled is other:
-                settled = _settle(step1, start, masses, centres, goal, pairs)
+                settled = _settle(step1, start, masses, centres, goal, world)
             if disagreement is not None:
                 notes.append(disagreement)
-        if not settled.falls and not _at_rest(settled):
+        if not settled.falls and not _at_rest(settled) and np.isfinite(settled.equilibrium or 0.0):
             notes.append(
                 error(
                     "E503",
@@ -250,10 +263,13 @@ def _solve_once(model: Model, options: SolveOptions, loop_start: Array | None) -
                 "and report the program",
             )
         )
+    overlaps = [c for c in contacts_at(model, x, pairs, _weight(masses)) if c.depth > OVERLAP_KEPT_MM]
+    diagnostics.extend(_overlap_diagnostic(model, contact) for contact in overlaps[:1])
     if settled.falls:
         status = "falls_apart"
     else:
-        status = "solved" if _at_rest(settled) and gap <= LOOP_KEPT_MM else "not_at_rest"
+        held = _at_rest(settled) and gap <= LOOP_KEPT_MM and not overlaps
+        status = "solved" if held else "not_at_rest"
     return Solution(
         status,
         model,
@@ -310,7 +326,7 @@ def _settle(
     masses: Array,
     centres: Array,
     goal: target_mod.TargetGoal,
-    pairs: tuple[Pair, ...],
+    pairs: Pairs,
     thorough: bool = True,
 ) -> Settled:
     """Step 2 from step 1's `x`: held DoFs stay, the rest settle under gravity (with
@@ -337,11 +353,13 @@ def _settle(
 
     energy, resistance = with_friction_at(x)
     at_rest = SETTLE_TOLERANCE * weight
-    if len(movable) and thorough:
+    if not len(movable):
+        pass  # nothing to settle: verified where it stands
+    elif thorough:
         x, curvature = _settle_stably(step2, energy, x, at_rest, weight)
         if not step2.out_of_time():
             x = _turn_towards_target(step2, energy, goal, x, at_rest, TARGET_PULL * weight, curvature)
-    elif len(movable):
+    else:
         x = step2.full(settle(step2, energy, x[movable], at_rest).x)
     for _ in range(FRICTION_ROUNDS):  # until friction agrees with the forces where it settled
         if not slides or step2.out_of_time():
@@ -495,8 +513,9 @@ def step_one(
     The starts are made as they are asked for: closing a random start's loops
     costs as much as a short fit, and a fit that succeeds needs no more starts."""
     x0 = model.x_default()
-    spacing = spacing_constraints(model, spread(spacing_constraints(model, x0), x0))
-    x0 = spread(spacing, x0)
+    low, high = model.bounds()
+    spacing = spacing_constraints(model, spread(spacing_constraints(model, x0), x0, low, high))
+    x0 = spread(spacing, x0, low, high)
     free = np.array([i for i in range(len(model.variables)) if i not in model.pinned], dtype=int)
 
     def starts() -> Iterator[Array]:
@@ -730,6 +749,18 @@ def _fall_diagnostic(model: Model, fall: Fall | Topple) -> Diagnostic:
         joint.connection.span,
         "gravity keeps pulling it past the end; support it at a second point, turn or tilt the "
         "primitive the other way, or use one closed at that end",
+    )
+
+
+def _overlap_diagnostic(model: Model, contact: Contact) -> Diagnostic:
+    part, other = (model.parts[i] for i in (contact.part, contact.rests_on))
+    return error(
+        "E508",
+        f"`{part.name}` is {contact.depth:.1f} mm inside `{other.name}` where the solver stopped: "
+        "the parts cannot be where shown",
+        model.program.targets[0].span,
+        "the connections hold them where they would pass through each other: give them room (another "
+        "place on what holds them, a longer part), or try another --seed",
     )
 
 

@@ -1,30 +1,40 @@
-"""Contact with the environment: movable parts kept out of the environment's
-meshes, and the forces with which the environment holds them.
+"""Contact: movable parts kept out of the environment's meshes and out of each
+other, and the forces with which the environment holds what rests on it.
 
-Each movable part carries points sampled on its surface; each environment a
-signed distance grid (fabhal/meshes.py, fabhal/kinematics/contact.py). A
-point inside the environment is pushed out by a stiff spring along the
-distance's gradient (a penalty contact: the environment gives CONTACT_GIVE_MM
-under the whole assembly's weight on one point), which is an energy the settle
-minimises with gravity: a part that leans on a wall comes to rest against it,
-and the wall carries what it takes. Contacts are frictionless (a part may slide
-along the wall), which errs towards reporting that a hack moves. The contact
-that a connection itself makes is not a collision: around each connection
-point the two parts it joins may meet (within the reach of its primitives).
+Each movable part carries points sampled on its surface; each obstacle (an
+environment, or another movable part) a signed distance grid in its own frame
+(fabhal/meshes.py, fabhal/kinematics/contact.py). A point inside an obstacle
+is pushed out by a stiff spring along the distance's gradient (a penalty
+contact: it gives CONTACT_GIVE_MM under the whole assembly's weight on one
+point). Against the environment the springs are part of the settle's energy:
+a part that leans on a wall comes to rest against it, and the wall carries
+what it takes. Between movable parts they serve step 1 (`penetration`) and
+the final check (fabhal/solve/__init__.py, E508); the push acts on both parts,
+equal and opposite. Contacts are frictionless (a part may slide along the
+wall), which errs towards reporting that a hack moves. The contact that a
+connection itself makes is not a collision: around each connection point the
+two parts it joins may meet (within the reach of its primitives), and two
+movable parts joined by a connection are not tested against each other at
+all (how they meet is the connection's: its DoFs and ranges).
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterable, Iterator
+from collections.abc import Callable
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
+from numpy.typing import NDArray
 
 from fabhal.kinematics.contact import DistanceGrid, penalty
 from fabhal.kinematics.frames import Array, angular_velocities
-from fabhal.meshes import contact_grid, contact_points
-from fabhal.model import Forward, Model
+from fabhal.library import PartSpec
+from fabhal.meshes import contact_grid, contact_points, mass_properties
+from fabhal.model import Forward, Joint, Model
 from fabhal.primitives import Primitive
+
+Index = NDArray[np.intp]
 
 # how far the environment gives under the assembly's whole weight on one point
 # (mm): stiff enough that what rests on a wall enters it well under a millimetre
@@ -35,51 +45,122 @@ CONNECTION_CLEARANCE_MM = 5.0
 
 @dataclass(frozen=True)
 class Pair:
-    """A movable part's points against one environment."""
+    """A movable part's points against one obstacle's shape."""
 
     part: int
-    environment: int
+    obstacle: int  # an environment, or another movable part
     points: Array  # (N, 3) mm in the part's frame
-    grid: DistanceGrid  # in the environment's frame
-    centre: Array  # (3,) mm in the part's frame: the points' bounding sphere, to skip a pair far apart
-    radius: float
+    shape: PartSpec  # the obstacle's: its grid is built when first needed (`grid`)
+    box: Array  # (2, 3) mm, the obstacle's mesh's bounds in its frame
     # connections joining the two: (joint index, reach in mm) around whose point they may meet
     joined: tuple[tuple[int, float], ...]
+
+    @cached_property
+    def grid(self) -> DistanceGrid:
+        """In the obstacle's frame (built once per machine: fabhal/meshes.py)."""
+        return contact_grid(self.shape)
+
+
+@dataclass(frozen=True)
+class Pairs:
+    """Every pair, and each side's bounding ball (mm, in its own part's frame)
+    for a vectorised test of which pairs are near enough to look at."""
+
+    pairs: tuple[Pair, ...]
+    parts: Index  # (K,) the part of each pair
+    obstacles: Index  # (K,) its obstacle
+    part_balls: Array  # (K, 4): centre and radius of the part's points
+    obstacle_balls: Array  # (K, 4): of the obstacle's shape, with the grid's margin
+
+    def __len__(self) -> int:
+        return len(self.pairs)
+
+    @cached_property
+    def last_inside(self) -> dict[bytes, Touching]:
+        return {}
+
+    def against(self, obstacles: set[int]) -> Pairs:
+        """The pairs whose obstacle is one of these parts."""
+        keep = np.flatnonzero(np.isin(self.obstacles, list(obstacles)))
+        return Pairs(
+            tuple(self.pairs[k] for k in keep),
+            self.parts[keep],
+            self.obstacles[keep],
+            self.part_balls[keep],
+            self.obstacle_balls[keep],
+        )
+
+    def near(self, frames: Array) -> Index:
+        """The indices of the pairs whose balls meet, with the parts at `frames`."""
+        if not self.pairs:
+            return np.zeros(0, dtype=int)
+        centres = []
+        for owners, balls in ((self.parts, self.part_balls), (self.obstacles, self.obstacle_balls)):
+            rotation, origin = frames[owners, :3, :3], frames[owners, :3, 3]
+            centres.append(np.einsum("kij,kj->ki", rotation, balls[:, :3]) + origin)
+        gap = np.linalg.norm(centres[0] - centres[1], axis=1)
+        return np.flatnonzero(gap <= self.part_balls[:, 3] + self.obstacle_balls[:, 3])
 
 
 @dataclass(frozen=True)
 class Contact:
-    """Where a part rests on an environment, and how hard."""
+    """Where a part rests on another (an environment, or a movable part), and how hard."""
 
     part: int
-    environment: int
-    force: Array  # (3,) N the environment exerts on the part, world axes
+    rests_on: int
+    force: Array  # (3,) N the other exerts on the part, world axes
     moment: Array  # (3,) N mm the force's moment about the world origin
     point: Array  # (3,) mm world: where it acts (the penetration-weighted mean point), for the report
     depth: float  # mm, the deepest point's penetration
 
 
-def contact_pairs(model: Model) -> tuple[Pair, ...]:
-    """Every movable, placed part against every environment with a shape, except
-    where a surface connection stands the part on it (the whole face is the
-    connection's own contact)."""
-    environments = [i for i, p in enumerate(model.parts) if p.environment]
+def contact_pairs(model: Model) -> Pairs:
+    """Every movable, placed part against every environment with a shape and
+    every other movable part, except where a surface connection stands the part
+    on it (the whole face is the connection's own contact) and two movable parts
+    that a connection joins."""
     movable = [i for i, p in enumerate(model.parts) if not p.environment and i not in model.unplaced]
-    if not environments or not movable:
-        return ()
+    obstacles = [i for i, p in enumerate(model.parts) if p.environment or i in movable]
+    between: dict[frozenset[int], list[Joint]] = {}
+    for joint in model.joints:
+        between.setdefault(frozenset((joint.a.part, joint.b.part)), []).append(joint)
+    points = {part: contact_points(model.parts[part].spec) for part in movable}
+    boxes = {i: _box(model.parts[i].spec) for i in obstacles}
+    box_balls = {i: _ball_of_box(box) for i, box in boxes.items()}
     pairs = []
-    for environment in environments:
-        grid = contact_grid(model.parts[environment].spec)
-        for part in movable:
-            joints = [j for j in model.joints if {j.a.part, j.b.part} == {part, environment}]
+    for part in movable:
+        for obstacle in obstacles:
+            joints = between.get(frozenset((part, obstacle)), [])
+            if obstacle == part or (joints and not model.parts[obstacle].environment):
+                continue
             if any("surface" in (j.a.primitive.kind, j.b.primitive.kind) for j in joints):
                 continue
             joined = tuple((j.index, _reach(j.a.primitive) + _reach(j.b.primitive)) for j in joints)
-            points = contact_points(model.parts[part].spec)
-            centre = (points.min(axis=0) + points.max(axis=0)) / 2
-            radius = float(np.linalg.norm(points - centre, axis=1).max())
-            pairs.append(Pair(part, environment, points, grid, centre, radius, joined))
-    return tuple(pairs)
+            spec = model.parts[obstacle].spec
+            pairs.append(Pair(part, obstacle, points[part], spec, boxes[obstacle], joined))
+    point_balls = {part: _ball_of_points(points[part]) for part in movable}
+    return Pairs(
+        tuple(pairs),
+        np.array([pair.part for pair in pairs], dtype=int),
+        np.array([pair.obstacle for pair in pairs], dtype=int),
+        np.array([point_balls[pair.part] for pair in pairs]).reshape(-1, 4),
+        np.array([box_balls[pair.obstacle] for pair in pairs]).reshape(-1, 4),
+    )
+
+
+def _ball_of_points(points: Array) -> Array:
+    centre = (points.min(axis=0) + points.max(axis=0)) / 2
+    return np.append(centre, np.linalg.norm(points - centre, axis=1).max())
+
+
+def _box(spec: PartSpec) -> Array:
+    """(2, 3) the part's mesh's bounds, where any point inside it must be (its
+    grid is not built to find out: most pairs never come near)."""
+    return np.array(mass_properties(spec).bounds, dtype=float)
+
+
+def _ball_of_box(box: Array) -> Array:
+    return np.append(box.mean(axis=0), np.linalg.norm(box[1] - box[0]) / 2)
 
 
 def _reach(primitive: Primitive) -> float:
@@ -99,111 +180,187 @@ def _reach(primitive: Primitive) -> float:
     return sizes.get(primitive.kind, 0.0) + CONNECTION_CLEARANCE_MM
 
 
-def _distances(model: Model, fwd: Forward, pair: Pair) -> tuple[Array, Array, Array]:
-    """The pair's points in the world (N, 3), their signed distances from the
-    environment (N,; +inf where a connection's own contact) and the distances'
-    gradients in the world (N, 3)."""
-    frame, environment = fwd.frames[pair.part], fwd.frames[pair.environment]
-    if not pair.grid.near(
-        (frame[:3, :3] @ pair.centre + frame[:3, 3] - environment[:3, 3]) @ environment[:3, :3], pair.radius
-    ):
-        far = np.full(len(pair.points), np.inf)
-        return np.zeros((len(pair.points), 3)), far, np.zeros((len(pair.points), 3))
-    world = pair.points @ frame[:3, :3].T + frame[:3, 3]
-    local = (world - environment[:3, 3]) @ environment[:3, :3]
-    distance, gradient = pair.grid.sample(local)
-    if pair.joined:
-        connections = model.connection_points(fwd)
-        for joint, reach in pair.joined:
-            distance[np.linalg.norm(world - connections[joint], axis=1) < reach] = np.inf
-    return world, distance, gradient @ environment[:3, :3].T
+def _distances(model: Model, fwd: Forward, pairs: Pairs, group: list[int]) -> tuple[Array, Array, Array]:
+    """Pairs of one kind (the same points against the same grid) at once: their
+    points in the world (G, N, 3), their signed distances from the obstacle
+    (G, N; +inf where a connection's own contact) and the distances' gradients
+    in the world (G, N, 3)."""
+    first = pairs.pairs[group[0]]
+    frames = fwd.frames
+    part, obstacle = frames[pairs.parts[group]], frames[pairs.obstacles[group]]
+    # row vectors: p_world = R p + o is p @ R^T + o, and p_local = (p_world - o) @ R
+    world = first.points @ part[:, :3, :3].transpose(0, 2, 1) + part[:, None, :3, 3]
+    local = (world - obstacle[:, None, :3, 3]) @ obstacle[:, :3, :3]
+    # only points within the obstacle's box can be inside it: the rest are not looked up
+    low, high = first.box
+    flat = local.reshape(-1, 3)
+    boxed = np.flatnonzero(np.all((flat >= low) & (flat <= high), axis=1))
+    distances, gradients = np.full(len(flat), np.inf), np.zeros((len(flat), 3))
+    distances[boxed], gradients[boxed] = first.grid.sample(flat[boxed])
+    distance: Array = distances.reshape(len(group), -1)
+    gradient = gradients.reshape(len(group), -1, 3) @ obstacle[:, :3, :3].transpose(0, 2, 1)
+    connections = None
+    for g, k in enumerate(group):
+        for joint, reach in pairs.pairs[k].joined:
+            connections = model.connection_points(fwd) if connections is None else connections
+            distance[g, np.linalg.norm(world[g] - connections[joint], axis=1) < reach] = np.inf
+    return world, distance, gradient
 
 
-def _inside(
-    model: Model, fwd: Forward, pairs: tuple[Pair, ...]
-) -> Iterator[tuple[int, Pair, Array, Array, Array]]:
-    """For each pair with points inside the environment: its index, the pair,
-    and those points (world, (n, 3)), their depths (mm, (n,)) and the way out
-    (the distance's gradient, world, (n, 3))."""
-    for k, pair in enumerate(pairs):
-        world, distance, normal = _distances(model, fwd, pair)
+@dataclass(frozen=True)
+class Touching:
+    """Every point inside an obstacle, over all pairs: (M,) the pair of each,
+    (M, 3) where it is (world), (M,) how deep (mm) and (M, 3) the way out
+    (the distance's gradient, world)."""
+
+    pair: Index
+    world: Array
+    depth: Array
+    normal: Array
+
+    def per_pair(self, values: Array, count: int) -> Array:
+        """(M, ...) values summed per pair: (count, ...)."""
+        out = np.zeros((count, *values.shape[1:]))
+        np.add.at(out, self.pair, values)
+        return out
+
+
+def _inside(model: Model, fwd: Forward, pairs: Pairs) -> Touching:
+    """The points inside an obstacle. The pairs near enough to look at are
+    looked at a kind at a time (one grid lookup for all the S-hooks of a chain).
+    The last answer is kept: the settle's energy, its verification and the
+    report's contacts ask at the same place."""
+    key = fwd.frames.tobytes()
+    last = pairs.last_inside.get(key)
+    if last is None:
+        last = _look_inside(model, fwd, pairs)
+        pairs.last_inside.clear()
+        pairs.last_inside[key] = last
+    return last
+
+
+def _look_inside(model: Model, fwd: Forward, pairs: Pairs) -> Touching:
+    kinds: dict[tuple[int, int], list[int]] = {}
+    for k in pairs.near(fwd.frames).tolist():
+        pair = pairs.pairs[k]
+        kinds.setdefault((id(pair.points), id(pair.grid)), []).append(k)
+    found: list[tuple[Array, Array, Array, Array]] = []
+    for group in kinds.values():
+        world, distance, normal = _distances(model, fwd, pairs, group)
         inside = distance < 0.0
-        if inside.any():
-            yield k, pair, world[inside], -distance[inside], normal[inside]
+        which = np.broadcast_to(np.array(group)[:, None], inside.shape)[inside]
+        found.append((which, world[inside], -distance[inside], normal[inside]))
+    if not found:
+        return Touching(np.zeros(0, dtype=int), np.zeros((0, 3)), np.zeros(0), np.zeros((0, 3)))
+    which, world, depth, normal = (np.concatenate(column) for column in zip(*found, strict=True))
+    return Touching(which, world, depth, normal)
 
 
-def _resultant(push: Array, world: Array) -> tuple[Array, Array]:
-    """The force (3,) and its moment about the world origin (3,) of the pushes
-    (n, 3) at the points `world` (n, 3)."""
-    return push.sum(axis=0), np.cross(world, push).sum(axis=0)
+def _loads(pairs: Pairs, touching: Touching, push: Array, parts: int) -> tuple[Array, Array]:
+    """The pushes (M, 3) on the touching points as loads: (parts, 3) forces and
+    their moments about the world origin on each part, the reaction on the
+    obstacle (an environment's is never used: it does not move)."""
+    forces = touching.per_pair(push, len(pairs))
+    moments = touching.per_pair(np.cross(touching.world, push), len(pairs))
+    part_forces, part_moments = np.zeros((parts, 3)), np.zeros((parts, 3))
+    for owners, sign in ((pairs.parts, 1.0), (pairs.obstacles, -1.0)):
+        np.add.at(part_forces, owners, sign * forces)
+        np.add.at(part_moments, owners, sign * moments)
+    return part_forces, part_moments
 
 
-def _per_part(model: Model, loads: Iterable[tuple[int, Array, Array]]) -> tuple[Array, Array]:
-    """(part, force, moment about the origin) loads summed per part: (P, 3), (P, 3)."""
-    forces = np.zeros((len(model.parts), 3))
-    moments = np.zeros((len(model.parts), 3))
-    for part, force, moment in loads:
-        forces[part] += force
-        moments[part] += moment
-    return forces, moments
+def _stiffness(weight: float) -> float:
+    """The springs' stiffness (joules per mm^2, fabhal/kinematics/contact.py
+    `penalty`): the assembly's whole weight (joules per mm) on one point sinks
+    it CONTACT_GIVE_MM."""
+    return weight / CONTACT_GIVE_MM
 
 
 def with_contacts(
-    model: Model, energy: Callable[[Array], tuple[float, Array]], pairs: tuple[Pair, ...], weight: float
+    model: Model, energy: Callable[[Array], tuple[float, Array]], pairs: Pairs, weight: float
 ) -> Callable[[Array], tuple[float, Array]]:
     """The energy plus the contacts' springs. weight: the assembly's, joules per mm."""
     if not pairs:
         return energy
-    stiffness = weight / CONTACT_GIVE_MM  # joules per mm^2 of penetration
+    stiffness = _stiffness(weight)
 
     def total(x: Array) -> tuple[float, Array]:
         value, gradient = energy(x)
         fwd = model.forward(x, with_twists=True)
-        loads = []
-        for _, pair, world, depth, normal in _inside(model, fwd, pairs):
-            spring, slope = penalty(-depth, stiffness)
-            value += spring
-            # d(spring) / d(point) as a load on the part: its generalised force is the gradient
-            loads.append((pair.part, *_resultant(slope[:, None] * normal, world)))
-        if not loads:
+        touching = _inside(model, fwd, pairs)
+        if not len(touching.depth):
             return value, gradient
-        return value, gradient + model.wrench_gradient(fwd, *_per_part(model, loads))
+        spring, slope = penalty(-touching.depth, stiffness)
+        # d(spring) / d(point) as a load on the part (and the reaction on a movable
+        # obstacle): their generalised forces are the gradient
+        loads = _loads(pairs, touching, slope[:, None] * touching.normal, len(model.parts))
+        return value + float(np.sum(spring)), gradient + model.wrench_gradient(fwd, *loads)
 
     return total
 
 
-def penetration(model: Model, x: Array, pairs: tuple[Pair, ...]) -> tuple[Array, Array]:
-    """Per pair, how deep its points are inside the environment: the root of the
-    sum of their squared depths (mm; 0 when none is inside: one entry per pair,
-    so the length never changes), and its exact derivative by x (pairs x DoFs).
-    As residuals for step 1 they cost what each point's depth would, squared."""
+def penetration(model: Model, x: Array, pairs: Pairs) -> tuple[Array, Array]:
+    """Per part, how deep its points are inside obstacles: the root of the sum of
+    their squared depths (mm; 0 when none is inside: one entry per part, so the
+    length never changes), and its exact derivative by x (parts x DoFs). As
+    residuals for step 1 they cost what each point's depth would, squared."""
     fwd = model.forward(x, with_twists=True)
     assert fwd.twists is not None
-    angular = angular_velocities(fwd.twists)
-    depths, rows = np.zeros(len(pairs)), np.zeros((len(pairs), len(x)))
-    for k, pair, world, depth, normal in _inside(model, fwd, pairs):
-        depths[k] = float(np.linalg.norm(depth))
-        # d(distance) / dx_j = normal . (w_j x p + v_j), for the DoFs that move the part
-        force, moment = depth @ normal, depth @ np.cross(world, normal)
-        change = fwd.twists[:, :3, 3] @ force + angular @ moment
-        rows[k] = -change * model.layout.moves[:, pair.part] / depths[k]
+    touching = _inside(model, fwd, pairs)
+    parts = len(model.parts)
+    depths = np.zeros(parts)
+    np.add.at(depths, pairs.parts[touching.pair], touching.depth**2)
+    depths = np.sqrt(depths)
+    rows = np.zeros((parts, len(x)))
+    if not len(touching.depth):
+        return depths, rows
+    # d(distance) / dx_j = normal . (w_j x p + v_j) for the DoFs that move the
+    # part, less the same for those that move the obstacle (never an environment)
+    touched, which = np.unique(touching.pair, return_inverse=True)
+    weighted = touching.depth[:, None] * touching.normal
+    force, moment = np.zeros((len(touched), 3)), np.zeros((len(touched), 3))
+    np.add.at(force, which, weighted)
+    np.add.at(moment, which, np.cross(touching.world, weighted))
+    change = force @ fwd.twists[:, :3, 3].T + moment @ angular_velocities(fwd.twists).T
+    moves = model.layout.moves.astype(float)
+    change *= (moves[:, pairs.parts[touched]] - moves[:, pairs.obstacles[touched]]).T
+    np.add.at(rows, pairs.parts[touched], -change)
+    inside = depths > 0.0
+    rows[inside] /= depths[inside, None]
     return depths, rows
 
 
-def contacts_at(model: Model, x: Array, pairs: tuple[Pair, ...], weight: float) -> tuple[Contact, ...]:
+def contacts_at(model: Model, x: Array, pairs: Pairs, weight: float) -> tuple[Contact, ...]:
     """The contacts at x: each pair whose points are inside, with the force the
-    environment exerts (N) and where."""
-    stiffness = weight / CONTACT_GIVE_MM
-    fwd = model.forward(x, with_twists=True)
-    found = []
-    for _, pair, world, depth, normal in _inside(model, fwd, pairs):
-        push = 1000.0 * stiffness * depth[:, None] * normal  # J/mm -> N
-        force, moment = _resultant(push, world)
-        point = (depth @ world) / depth.sum()
-        found.append(Contact(pair.part, pair.environment, force, moment, point, float(depth.max())))
-    return tuple(found)
+    obstacle exerts (N) and where."""
+    touching = _inside(model, model.forward(x, with_twists=True), pairs)
+    slope = penalty(-touching.depth, _stiffness(weight))[1]
+    push = -1000.0 * slope[:, None] * touching.normal  # J/mm -> N
+    forces = touching.per_pair(push, len(pairs))
+    moments = touching.per_pair(np.cross(touching.world, push), len(pairs))
+    total_depth = touching.per_pair(touching.depth, len(pairs))
+    points = touching.per_pair(touching.depth[:, None] * touching.world, len(pairs))
+    deepest = np.zeros(len(pairs))
+    np.maximum.at(deepest, touching.pair, touching.depth)
+    return tuple(
+        Contact(
+            pairs.pairs[k].part,
+            pairs.pairs[k].obstacle,
+            forces[k],
+            moments[k],
+            points[k] / total_depth[k],  # the penetration-weighted mean point
+            float(deepest[k]),
+        )
+        for k in np.unique(touching.pair).tolist()
+    )
 
 
 def contact_loads(model: Model, contacts: tuple[Contact, ...]) -> tuple[Array, Array]:
-    """(P, 3) N the contacts' forces on each part, and (P, 3) N mm their moments about the world origin."""
-    return _per_part(model, ((contact.part, contact.force, contact.moment) for contact in contacts))
+    """(P, 3) N the contacts' forces on each part (a movable part that another
+    rests on bears the reaction), and (P, 3) N mm their moments about the world origin."""
+    forces, moments = np.zeros((len(model.parts), 3)), np.zeros((len(model.parts), 3))
+    for contact in contacts:
+        for part, sign in ((contact.part, 1.0), (contact.rests_on, -1.0)):
+            forces[part] += sign * contact.force
+            moments[part] += sign * contact.moment
+    return forces, moments

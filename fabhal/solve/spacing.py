@@ -11,13 +11,14 @@ made smooth). Linear in x, so its Jacobian is constant.
 
 from __future__ import annotations
 
+import itertools
 from dataclasses import dataclass
 
 import numpy as np
 
 from fabhal.check.dimensions import across
 from fabhal.kinematics.frames import Array
-from fabhal.model import Model
+from fabhal.model import Joint, Model, Side, threaded
 
 
 @dataclass(frozen=True)
@@ -44,7 +45,7 @@ def spacing_constraints(model: Model, x0: Array) -> list[Spacing]:
                 continue
             entries = shares.setdefault((host.part, host.primitive.name), [])
             if all(other != guest.part for _, other, _ in entries):  # first connection per neighbouring part
-                entries.append((slide, guest.part, across(guest.primitive) / 2.0))
+                entries.append((slide, guest.part, _half_width(joint, guest)))
     constraints = []
     for (part, name), entries in shares.items():
         length = model.parts[part].spec.primitive(name).params["length"]  # type: ignore[union-attr]
@@ -52,6 +53,16 @@ def spacing_constraints(model: Model, x0: Array) -> list[Spacing]:
             sign = 1.0 if x0[j] >= x0[i] else -1.0
             constraints.append(Spacing(i, j, length, ci + cj, sign))
     return constraints
+
+
+def _half_width(joint: Joint, guest: Side) -> float:
+    """How far a part reaches along the primitive it is on, each way from its
+    connection point: half its thickness across, or half the length of a sleeve
+    threaded on it (held at its middle: fabhal/model.py `threaded`)."""
+    sides = threaded(joint)
+    if sides is not None and sides[0] is guest:
+        return guest.primitive.params["length"] / 2.0
+    return across(guest.primitive) / 2.0
 
 
 def spacing_values(constraints: list[Spacing], x: Array) -> Array:
@@ -67,14 +78,56 @@ def spacing_jacobian(constraints: list[Spacing], n: int) -> Array:
     return jac
 
 
-def spread(constraints: list[Spacing], x: Array) -> Array:
-    """Parts sharing a primitive start spread evenly along it, in program order
-    (all defaults are the middle, which would put them inside each other)."""
+def spread(constraints: list[Spacing], x: Array, low: Array, high: Array) -> Array:
+    """Parts sharing a primitive start spread along it (all defaults are the
+    middle, which would put them inside each other): in the order that fits
+    them within their ranges (`low`, `high`) with their widths apart and spans
+    the most of the primitive (a sleeve between the two hooks that hold its
+    rod, not beside both), of equals the first of their canonical order and
+    then the others; halfway between packed to one end and packed to the
+    other; evenly in the canonical order where no order fits (then the fit
+    reports what it cannot close)."""
     x = x.copy()
+    gaps = {}
+    for c in constraints:
+        gaps[c.first, c.second] = gaps[c.second, c.first] = c.gap / c.length
     for members in _connected(constraints):
-        for rank, i in enumerate(members):
-            x[i] = (rank + 1) / (len(members) + 1)
+        orders = itertools.islice(itertools.permutations(members), MAX_ORDERS)
+        fits = [p for p in (_packed(o, gaps, low, high) for o in orders) if p is not None]
+        # max keeps the first of equals
+        placed = max(fits, key=lambda p: max(p.values()) - min(p.values()), default=None)
+        if placed is None:
+            placed = {i: (rank + 1) / (len(members) + 1) for rank, i in enumerate(members)}
+        for i, t in placed.items():
+            x[i] = t
     return x
+
+
+MAX_ORDERS = 120  # the orders of five parts on one primitive; more are kept in the canonical one
+
+
+def _packed(
+    order: tuple[int, ...], gaps: dict[tuple[int, int], float], low: Array, high: Array
+) -> dict[int, float] | None:
+    """The members in this order, each its gap from the last, spread over the
+    room they have: the k-th of n at (k + 1) / (n + 1) of the way from packed
+    at the low end to packed at the high end (halfway, where that would break
+    a gap); None if they do not fit."""
+    up = [float(low[order[0]])]
+    for last, i in itertools.pairwise(order):
+        up.append(max(float(low[i]), up[-1] + gaps.get((last, i), 0.0)))
+    down = [float(high[order[-1]])]
+    for last, i in itertools.pairwise(order[::-1]):
+        down.append(min(float(high[i]), down[-1] - gaps.get((last, i), 0.0)))
+    down.reverse()
+    if any(u > d + 1e-12 for u, d in zip(up, down, strict=True)):
+        return None
+    share = (np.arange(len(order)) + 1.0) / (len(order) + 1.0)
+    spread_out = np.array(up) + share * (np.array(down) - np.array(up))
+    steps = [gaps.get(pair, 0.0) for pair in itertools.pairwise(order)]
+    if np.any(np.diff(spread_out) < np.array(steps) - 1e-12):
+        spread_out = (np.array(up) + np.array(down)) / 2  # both packings keep the gaps: so does their mean
+    return {i: float(t) for i, t in zip(order, spread_out, strict=True)}
 
 
 def _connected(constraints: list[Spacing]) -> list[list[int]]:

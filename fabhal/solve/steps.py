@@ -35,7 +35,7 @@ from fabhal.optimize import (
     tangent_curvature,
 )
 from fabhal.solve import target as target_mod
-from fabhal.solve.contacts import Pair, penetration
+from fabhal.solve.contacts import Pairs, penetration
 from fabhal.solve.forces import Slide, slide_dofs, weight_newtons
 from fabhal.solve.spacing import Spacing, spacing_jacobian, spacing_values
 
@@ -184,11 +184,15 @@ class Fit:
     runner_up: Array | None = None
 
 
+# in step 1's refit, a millimetre inside an obstacle costs like this many of target error
+PENETRATION_WEIGHT = 100.0
+
+
 def fit_target(
     problem: Problem,
     goal: target_mod.TargetGoal,
     starts: Iterable[Array],
-    pairs: tuple[Pair, ...] = (),
+    pairs: Pairs | None = None,
     evaluations: int = FIT_EVALUATIONS,
 ) -> Fit:
     """Best free DoFs over the starts (taken from `starts` only as needed).
@@ -200,8 +204,10 @@ def fit_target(
     from every start. A start whose probe fits ends the search; it is still
     finished (polished to convergence). Where none fits, the runner-up is the
     next best finished fit. If the answer passes through the environment
-    (`pairs`), it is fitted once more with each millimetre a point is inside
-    costing like a millimetre of target error."""
+    (`pairs`: the environment or another part), it is fitted once more with
+    each millimetre a point is inside costing like PENETRATION_WEIGHT
+    millimetres of target error: a builder gives up some accuracy before
+    pushing one object through another."""
     model = problem.model
 
     def residual_and_jacobian(v: Array) -> tuple[Array, Array]:
@@ -210,9 +216,13 @@ def fit_target(
         return r, target_mod.residual_jacobian(goal, model, fwd)[:, problem.free]
 
     def kept_out(v: Array) -> tuple[Array, Array]:
+        assert pairs is not None  # fitted with contacts only where there are pairs
         r, jacobian = residual_and_jacobian(v)
         depth, depth_jacobian = penetration(model, problem.full(v), pairs)
-        return np.concatenate([r, depth]), np.vstack([jacobian, depth_jacobian[:, problem.free]])
+        return (
+            np.concatenate([r, PENETRATION_WEIGHT * depth]),
+            np.vstack([jacobian, PENETRATION_WEIGHT * depth_jacobian[:, problem.free]]),
+        )
 
     def fit(start: Array, evaluations: int, with_contacts: bool = False) -> tuple[Array, float]:
         residuals = kept_out if with_contacts else residual_and_jacobian
@@ -231,7 +241,9 @@ def fit_target(
         when it passes through it (fitted without: contact residuals switch on
         and off, and from the start they lead the fit astray). Kept only if its
         loops are closed and spacings kept (`fit`'s cost is finite)."""
-        if not pairs or result.late or not penetration(model, problem.full(result.v), pairs)[0].any():
+        if not pairs or result.late or problem.out_of_time():
+            return result
+        if not penetration(model, problem.full(result.v), pairs)[0].any():
             return result
         v, cost = fit(result.v, evaluations, with_contacts=True)
         return replace(result, v=v) if np.isfinite(cost) else result  # not at the price of an open loop

@@ -7,6 +7,8 @@ is the issue's 1 mm (the contact gives 0.2 mm under the whole weight on one poin
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -25,12 +27,14 @@ def solved(name: str) -> Solution:
 
 
 def deepest(solution: Solution) -> dict[str, float]:
-    """mm, each movable part's deepest point inside the environment (0 if none)."""
+    """mm, each movable part's deepest point inside the environment or another
+    part (0 if none)."""
     model = solution.model
     fwd = model.forward(solution.x, with_twists=True)
     depth: dict[str, float] = {}
-    for pair in contact_pairs(model):
-        distance = _distances(model, fwd, pair)[1]
+    pairs = contact_pairs(model)
+    for k, pair in enumerate(pairs.pairs):
+        distance = _distances(model, fwd, pairs, [k])[1][0]
         name = model.parts[pair.part].name
         depth[name] = max(depth.get(name, 0.0), float(max(0.0, -distance.min())))
     return depth
@@ -59,7 +63,7 @@ def test_the_paper_towel_roll_rests_against_the_wall() -> None:
     m g = (2 x 135.2 + 47.5 + 200) g x 9.81 = 5.08 N up, with no net
     sideways force (0.01 N: the settle stops at 1e-4 of the weight per mm)."""
     solution = solved("paper_towel_holder.fhl")
-    assert max(deepest(solution).values()) < 1.0
+    assert max(deepest(solution).values()) < 1.0  # the wall, and each part in the others
     (contact,) = solution.contacts
     assert solution.model.parts[contact.part].name == "roll"
     assert contact.force[0] > 1.0 and abs(contact.force[2]) < 0.05  # the wall pushes horizontally
@@ -90,3 +94,67 @@ def test_the_caddys_hooks_hang_over_the_seat_backs() -> None:
     assert solution.contacts  # the hooks rest on the seat backs
     weight = float(weight_newtons(solution.masses).sum())
     assert held_by_the_environment(solution) == pytest.approx([0.0, 0.0, weight], abs=0.01)
+
+
+def test_the_paper_towel_roll_hangs_between_the_eye_hooks() -> None:
+    """The roll (279.4 mm) is threaded on the broom (387 mm), which two eye hooks
+    hold. The roll is held at its middle, which keeps its whole length on the
+    broom: its middle at t in [0.5 - (387 - 279.4) / 774, 0.5 + ...] = [0.361,
+    0.639] of the broom; each hook's wire (5 mm) then keeps 139.7 + 5 = 144.7 mm
+    from that middle. Before, the spacing counted the roll as thick as it is
+    round (50 mm each way) and the roll swallowed an eye hook (13 mm deep);
+    now it hangs between them, as built, 4.3 mm from its request (was 50.6)."""
+    result = api.solve(REPO / "programs" / "paper_towel_holder.fhl")
+    solution = result.solution
+    assert result.status == "solved"
+    roll, hooks = None, []  # where each connection sits along the broom, mm from its end
+    for joint in solution.model.joints:
+        for side in (joint.a, joint.b):
+            if solution.model.parts[side.part].name == "broom":
+                t = float(solution.x[side.dof_indices[0]]) * 387.0
+                other = joint.b if side is joint.a else joint.a
+                if solution.model.parts[other.part].name == "roll":
+                    roll = t
+                else:
+                    hooks.append(t)
+    assert roll is not None and len(hooks) == 2
+    assert 0.361 * 387 - 0.1 <= roll <= 0.639 * 387 + 0.1
+    assert min(hooks) <= roll - 144.7 + 1e-6 and max(hooks) >= roll + 144.7 - 1e-6
+    assert all(depth < 1.0 for depth in deepest(solution).values())
+    assert solution.target_errors()[0] < 10.0
+
+
+TWO_ON_A_SHELF = """\
+part Post "A post on a square foot." {
+  material wood
+  rod rod(radius: 10, length: 300) at (0, 0, 150)
+  surface foot(width: 40, length: 40)
+}
+part Pole "A thin pole on a small foot." {
+  material wood
+  rod rod(radius: 4, length: 200) at (0, 0, 100)
+  surface foot(width: 8, length: 8)
+}
+environment shelf = Surface(width: 400, length: 400) at (0, 0, 0)
+post = Post()
+pole = Pole()
+connect post.foot -- shelf
+connect pole.foot -- shelf
+target post.rod at (0, 0, 150)
+"""
+
+
+def test_parts_left_inside_each_other_are_never_solved(tmp_path: Path) -> None:
+    """Two objects stood on one shelf both stand at its middle: the thin pole
+    (radius 4) inside the post (radius 10), its surface 6 mm inside and the
+    middle of its top 10 mm: E508 names them and how deep (6 to 10 mm, 0.5 for
+    the grid), at the target line, status not_at_rest, never solved."""
+    program = tmp_path / "shelf.fhl"
+    program.write_text(TWO_ON_A_SHELF)
+    result = api.solve(program)
+    assert result.status == "not_at_rest"
+    (overlap,) = [d for d in result.diagnostics if d.code == "E508"]
+    assert overlap.message.startswith("`pole` is ") and "inside `post`" in overlap.message
+    depth = float(overlap.message.split(" is ")[1].split(" mm")[0])
+    assert 5.5 <= depth <= 10.5
+    assert overlap.span is not None and overlap.span.line == 16
