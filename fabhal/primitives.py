@@ -240,6 +240,9 @@ class Dof:
     low_open: bool = False
     high_open: bool = False
     critical: bool = False  # a position that uses up the primitive's length/area
+    # a lean (a flex angle: a hook tilting on its rod): its range is where the
+    # model stops it, not an end a real contact has, and it carries no load
+    lean: bool = False
 
     @property
     def tag(self) -> Tag:
@@ -270,7 +273,7 @@ def _hook_theta(params: Mapping[str, float], flags: Mapping[str, bool]) -> Dof:
 def dofs_of(variant: str, params: Mapping[str, float], flags: Mapping[str, bool]) -> tuple[Dof, ...]:
     """The DoFs a connection creates on a primitive, in storage order."""
     slides_off = flags.get("slide_off", True)
-    flex_phi = Dof("phi", 45.0, 135.0, 90.0)
+    flex_phi = Dof("phi", 45.0, 135.0, 90.0, lean=True)
     table: dict[str, Callable[[], tuple[Dof, ...]]] = {
         # spin: the rod turns in what holds it (a handle in a hook); the reference
         # welds the contact to one line of the rod, so a basket pivoted about its
@@ -283,7 +286,7 @@ def dofs_of(variant: str, params: Mapping[str, float], flags: Mapping[str, bool]
         "Hook": lambda: (_hook_theta(params, flags),),
         "HookFlex": lambda: (_hook_theta(params, flags), flex_phi),
         "Ring": lambda: (_spin("theta", 180.0),),
-        "RingFlex": lambda: (_spin("theta", 180.0), Dof("phi", 30.0, 150.0, 90.0)),
+        "RingFlex": lambda: (_spin("theta", 180.0), Dof("phi", 30.0, 150.0, 90.0, lean=True)),
         # stored (phi, theta) as in the reference: phi turns about y, theta about x
         "RingCtl": lambda: (_spin("phi", 0.0), _spin("theta", 180.0)),
         "Clip": lambda: (Dof("t", 0.0, 1.0, 0.5),),

@@ -19,7 +19,7 @@ from fabhal.diagnostics import Diagnostic, Severity, error, warning
 from fabhal.kinematics.frames import Array
 from fabhal.kinematics.statics import Wrenches
 from fabhal.meshes import mass_properties
-from fabhal.model import Joint, Model
+from fabhal.model import Joint, Model, build_model
 from fabhal.solve import reach
 from fabhal.solve import target as target_mod
 from fabhal.solve.contacts import Contact, Pairs, contact_loads, contact_pairs, contacts_at, with_contacts
@@ -81,6 +81,10 @@ FRICTION_AGREEMENT = 0.01
 # this close: a builder's precision (see fabhal/solve/reach.py)
 DISAGREE_MM = 5.0
 DISAGREE_DEG = 5.0
+# a lean pushed against its stop by more than this (x the weight, per mm of motion; a
+# degree counts as a mm) is held by nothing real: the gallery's leans rest on their stops
+# with at most 0.0009, the basket on two eye hooks written without `flip` with 0.52
+LEAN_CARRIES = 0.01
 # a standing object falls over when its floor would have to push beyond the edge
 # of its base by more than this (the base's rim is not a knife edge)
 TOPPLE_MARGIN_MM = 0.5
@@ -117,6 +121,19 @@ class Fall:
 
 
 @dataclass(frozen=True)
+class Lean:
+    """A lean (a flex angle: a hook tilting on the rod it hangs from) pushed
+    against the end of its range: the range is the model's, a real hook would
+    tilt on, so the pose is not one the real objects rest in."""
+
+    joint: int
+    dof: int
+    end: str  # "min" or "max"
+    push: float  # the generalised force on the stop, per mm of motion, over the weight
+    part: str  # the part whose lean it is
+
+
+@dataclass(frozen=True)
 class Topple:
     joint: int  # the connection of the object and the floor it stands on
     part: str  # the object that falls over
@@ -136,7 +153,7 @@ class Solution:
     residual: float  # largest loop-closure error, mm
     equilibrium: float | None  # KKT residual after settling, relative; None without gravity
     at_bound: tuple[int, ...]  # DoFs resting on an end of their range
-    falls: tuple[Fall | Topple, ...]
+    falls: tuple[Fall | Topple | Lean, ...]
     diagnostics: tuple[Diagnostic, ...]
     # (J, 3) N that each connection's a side exerts on its b side, world axes; None without gravity
     forces: Array | None = None
@@ -175,14 +192,56 @@ def solve(model: Model, options: SolveOptions, loop_start: Array | None = None) 
         note = Diagnostic(
             Severity.NOTE,
             "N504",
-            f"from the first start `{fall.part}` {'fell over' if isinstance(fall, Topple) else 'slid off'} "
-            f"here; from another start (seed "
+            f"from the first start `{fall.part}` {_what_failed(fall)} here; from another start (seed "
             f"{options.seed + k}) the design holds",
             model.joints[fall.joint].connection.span,
             "the result is that configuration; set up by hand, mind how this connection is turned",
         )
         return replace(best, diagnostics=(note, *best.diagnostics))
+    if all(isinstance(fall, Lean) for fall in first.falls) and time.monotonic() < options.deadline:
+        return _with_flip_advice(model, options, first)
     return first
+
+
+def _what_failed(fall: Fall | Topple | Lean) -> str:
+    if isinstance(fall, Topple):
+        return "fell over"
+    return "hung on a lean's limit" if isinstance(fall, Lean) else "slid off"
+
+
+def _with_flip_advice(model: Model, options: SolveOptions, result: Solution) -> Solution:
+    """A hack held only by a lean's limit (E509): whether turning one of those
+    connections the other way (`flip`, or without it) hangs it at rest, solved
+    again that way; if one does, its E509 says so, with how near the request it
+    would hang. The result stays the program's own."""
+    advice: dict[int, str] = {}
+    for joint in dict.fromkeys(fall.joint for fall in result.falls):
+        if time.monotonic() > options.deadline:
+            break
+        connection = model.joints[joint].connection
+        options.report(f"held only by a lean's limit; trying {connection.a} -- {connection.b} turned over")
+        turned = replace(connection, flip=not connection.flip)
+        program = replace(
+            model.program,
+            connections=tuple(turned if c is connection else c for c in model.program.connections),
+        )
+        other = _solve_once(build_model(program), options, None)
+        if other.status == "solved":
+            position, rotation = other.target_errors()
+            written = "without `flip`" if connection.flip else "with `flip`"
+            advice[joint] = (
+                f"this connection written {written} hangs the hack at rest, {position:.0f} mm and "
+                f"{rotation:.0f} degrees from the request"
+            )
+            break
+    if not advice:
+        return result
+    by_line = {model.joints[joint].connection.span: text for joint, text in advice.items()}
+    diagnostics = tuple(
+        replace(d, help=by_line[d.span]) if d.code == "E509" and d.span in by_line else d
+        for d in result.diagnostics
+    )
+    return replace(result, diagnostics=diagnostics)
 
 
 def _solve_once(model: Model, options: SolveOptions, loop_start: Array | None) -> Solution:
@@ -265,8 +324,10 @@ def _solve_once(model: Model, options: SolveOptions, loop_start: Array | None) -
         )
     overlaps = [c for c in contacts_at(model, x, pairs, _weight(masses)) if c.depth > OVERLAP_KEPT_MM]
     diagnostics.extend(_overlap_diagnostic(model, contact) for contact in overlaps[:1])
-    if settled.falls:
+    if any(not isinstance(fall, Lean) for fall in settled.falls):
         status = "falls_apart"
+    elif settled.falls:
+        status = "not_at_rest"  # held by a lean's stop: not a state of rest of the real objects
     else:
         held = _at_rest(settled) and gap <= LOOP_KEPT_MM and not overlaps
         status = "solved" if held else "not_at_rest"
@@ -295,7 +356,7 @@ class Settled:
     x: Array
     equilibrium: float | None  # KKT residual, relative to the weight; None without gravity
     at_bound: tuple[int, ...]
-    falls: tuple[Fall | Topple, ...]
+    falls: tuple[Fall | Topple | Lean, ...]
     forces: Array | None = None  # (J, 3) N each connection carries there (see Solution)
     contacts: tuple[Contact, ...] = ()
 
@@ -661,12 +722,14 @@ def _verify(
     x: Array,
     masses: Array,
     holding: dict[int, float],
-) -> tuple[float, tuple[int, ...], tuple[Fall, ...]]:
+) -> tuple[float, tuple[int, ...], tuple[Fall | Lean, ...]]:
     """KKT check at the settled point: stationarity on the DoFs inside their
     ranges; on those resting on an end, the sign of the push decides whether an
     open connection comes apart, and a slide pushed off its end comes apart only
     when the push beats what friction holds (`holding`: joules per mm of sliding,
-    by DoF). Forces are per mm of motion, over the total weight."""
+    by DoF); a lean (a hook tilted on its rod) pushed against the model's stop
+    is held by nothing real (`Lean`). Forces are per mm of motion, over the
+    total weight."""
     model = problem.model
     free = problem.free
     weight = _weight(masses)
@@ -686,7 +749,7 @@ def _verify(
         multipliers = np.linalg.lstsq(constraint[:, inside].T, -gradient[inside], rcond=None)[0]
         force = gradient + constraint.T @ multipliers
     stationarity = float(np.abs(force[inside]).max()) if len(inside) else 0.0
-    falls = []
+    falls: list[Fall | Lean] = []
     for k, end in resting.items():
         i = int(free[k])
         dof = model.variables[i].dof
@@ -696,9 +759,12 @@ def _verify(
         if not outward and pushed:
             stationarity = max(stationarity, abs(force[k]))  # would move back inside: not at rest
         is_open = dof.low_open if end == "min" else dof.high_open
+        joint = model.joints[model.variables[i].joint]
         if outward and pushed and is_open:
-            joint = model.joints[model.variables[i].joint]
             falls.append(Fall(joint.index, i, end, _falling_part(model, joint, model.variables[i].side)))
+        elif outward and dof.lean and abs(force[k]) > LEAN_CARRIES:
+            part = model.parts[(joint.a if model.variables[i].side == "a" else joint.b).part].name
+            falls.append(Lean(joint.index, i, end, float(abs(force[k])), part))
     at_bound = tuple(sorted(int(free[k]) for k in resting))
     return stationarity, at_bound, tuple(falls)
 
@@ -730,9 +796,11 @@ def _falling_part(model: Model, joint: Joint, side: str) -> str:
     return model.parts[other.part].name
 
 
-def _fall_diagnostic(model: Model, fall: Fall | Topple) -> Diagnostic:
+def _fall_diagnostic(model: Model, fall: Fall | Topple | Lean) -> Diagnostic:
     if isinstance(fall, Topple):
         return _topple_diagnostic(model, fall)
+    if isinstance(fall, Lean):
+        return _lean_diagnostic(model, fall)
     variable = model.variables[fall.dof]
     joint = model.joints[fall.joint]
     end = joint.connection.a if variable.side == "a" else joint.connection.b
@@ -764,6 +832,22 @@ def _overlap_diagnostic(model: Model, contact: Contact) -> Diagnostic:
     )
 
 
+def _lean_diagnostic(model: Model, lean: Lean, flipped: str | None = None) -> Diagnostic:
+    variable = model.variables[lean.dof]
+    joint = model.joints[lean.joint]
+    end = joint.connection.a if variable.side == "a" else joint.connection.b
+    limit = variable.dof.low if lean.end == "min" else variable.dof.high
+    return error(
+        "E509",
+        f"not at rest: only the model's limit of the lean of `{end}` (phi = {limit:g}) holds the "
+        f"hack here ({100 * lean.push:.0f} % of its weight per mm); a real hook or ring would tilt on",
+        joint.connection.span,
+        flipped
+        or "this way of connecting does not hang here: turn a connection the other way (`flip`), or hang "
+        "the part from a second point",
+    )
+
+
 def _topple_diagnostic(model: Model, topple: Topple) -> Diagnostic:
     joint = model.joints[topple.joint]
     floor = next(s for s in model.standing if s.joint == topple.joint).floor
@@ -783,4 +867,4 @@ def _topple_diagnostic(model: Model, topple: Topple) -> Diagnostic:
     )
 
 
-__all__ = ["Fall", "NumericFailure", "Solution", "SolveOptions", "Topple", "solve"]
+__all__ = ["Fall", "Lean", "NumericFailure", "Solution", "SolveOptions", "Topple", "solve"]
