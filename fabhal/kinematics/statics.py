@@ -18,15 +18,15 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.linalg
 
 from fabhal.kinematics.frames import Array
 
 # moments enter the least squares divided by this lever arm (mm): the size of an
 # everyday part, so a newton and a newton-decimetre weigh alike
 MOMENT_ARM_MM = 100.0
-# minimum norm by a complete orthogonal factorisation (gelsy: the SVD's answer at
-# half its cost); directions below this fraction of the largest are the loop's own
+# minimum norm by the SVD (numpy's: importing scipy.linalg for its cheaper
+# orthogonal factorisation cost every process 0.33 s, more than the solves);
+# directions below this fraction of the largest are the loop's own
 # (indeterminate) forces: left out, not amplified. Rounding gives them ~1e-12,
 # and at that size a settled state's 1e-5 imbalance became 300 kN in a loop
 SINGULAR = 1e-8
@@ -94,9 +94,7 @@ def joint_wrenches(
     for k, j in enumerate(free_joint):
         matrix[n_balance + k, 6 * j : 6 * j + 6] = rows[k]
     solution = np.asarray(
-        scipy.linalg.lstsq(matrix, rhs, cond=SINGULAR, lapack_driver="gelsy")[0]
-        if matrix.size
-        else np.zeros(0),
+        np.linalg.lstsq(matrix, rhs, rcond=SINGULAR)[0] if matrix.size else np.zeros(0),
         dtype=float,
     )
     wrenches = solution.reshape(n_joints, 6)
