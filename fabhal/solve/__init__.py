@@ -762,11 +762,28 @@ def _verify(
         joint = model.joints[model.variables[i].joint]
         if outward and pushed and is_open:
             falls.append(Fall(joint.index, i, end, _falling_part(model, joint, model.variables[i].side)))
-        elif outward and dof.lean and abs(force[k]) > LEAN_CARRIES:
+        elif outward and dof.lean and abs(force[k]) > LEAN_CARRIES and not _in_a_corner(problem, x, i):
             part = model.parts[(joint.a if model.variables[i].side == "a" else joint.b).part].name
             falls.append(Lean(joint.index, i, end, float(abs(force[k])), part))
     at_bound = tuple(sorted(int(free[k]) for k in resting))
     return stationarity, at_bound, tuple(falls)
+
+
+def _in_a_corner(problem: Problem, x: Array, lean: int) -> bool:
+    """Whether the side of a lean (DoF `lean`) sits at a closed end of its rod:
+    in the corner where a basket's handle bends down, which stops the lean as
+    a real end does (a hook pushed into the bend of a U-handle)."""
+    model = problem.model
+    joint = model.joints[model.variables[lean].joint]
+    side = joint.a if model.variables[lean].side == "a" else joint.b
+    slide = side.dof_indices[0]
+    dof = model.variables[slide].dof
+    if dof.name != "t" or slide == lean:
+        return False
+    low, high = model.bounds()
+    at_low = x[slide] - low[slide] <= BOUND_TOLERANCE and not dof.low_open
+    at_high = high[slide] - x[slide] <= BOUND_TOLERANCE and not dof.high_open
+    return bool(at_low or at_high)
 
 
 def _resting_ends(problem: Problem, x: Array) -> dict[int, str]:
