@@ -290,10 +290,11 @@ CONTACT_POINT_SPACING_MM = 8.0
 CONTACT_POINTS = (64, 400)
 
 
-def contact_grid(spec: PartSpec) -> DistanceGrid:
-    """The environment part's signed distance grid (fabhal/kinematics/contact.py),
-    built once from its mesh and kept in the user cache dir like the measures."""
-    return _cached_array(spec, "grid", _build_grid)  # type: ignore[return-value]
+def contact_grid(spec: PartSpec, building: Callable[[], None] | None = None) -> DistanceGrid:
+    """The part's signed distance grid (fabhal/kinematics/contact.py), built
+    once from its mesh and kept in the user cache dir like the measures;
+    `building` is told before a grid is built (0.1-10 s)."""
+    return _cached_array(spec, "grid", _build_grid, building)  # type: ignore[return-value]
 
 
 def contact_points(spec: PartSpec) -> Array:
@@ -344,7 +345,9 @@ def _sample_points(spec: PartSpec) -> Array:
 _CONTACT_CACHE: dict[tuple[str, str], object] = {}
 
 
-def _cached_array(spec: PartSpec, kind: str, build: Callable[[PartSpec], object]) -> object:
+def _cached_array(
+    spec: PartSpec, kind: str, build: Callable[[PartSpec], object], building: Callable[[], None] | None = None
+) -> object:
     """`build(spec)` once per process and once per machine: kept in the user cache
     dir (an .npz), keyed by the mesh file's bytes (or the primitives) and the code
     that builds it."""
@@ -362,6 +365,8 @@ def _cached_array(spec: PartSpec, kind: str, build: Callable[[PartSpec], object]
     path = directory / f"{kind}-{key[1]}.npz" if directory is not None else None
     value = _load_array(path, kind) if path is not None and path.is_file() else None
     if value is None:
+        if building is not None:
+            building()
         value = build(spec)
         if path is not None:
             _save_array(path, value)

@@ -251,7 +251,7 @@ def _solve_once(model: Model, options: SolveOptions, loop_start: Array | None) -
 
     step1, starts = step_one(model, options.seed, loop_start, options.deadline)
     options.report("step 1: bringing the target to its frame")
-    pairs = contact_pairs(model)
+    pairs = contact_pairs(model, options.report)
     fit = fit_target(step1, goal, starts, pairs)
     # the settle's contact springs: with the environment only. Between two movable
     # parts they made the settles crawl (grazing contacts in a loop: the reading

@@ -54,11 +54,12 @@ class Pair:
     box: Array  # (2, 3) mm, the obstacle's mesh's bounds in its frame
     # connections joining the two: (joint index, reach in mm) around whose point they may meet
     joined: tuple[tuple[int, float], ...]
+    building: Callable[[], None] | None = None  # told before the obstacle's grid is first built
 
     @cached_property
     def grid(self) -> DistanceGrid:
         """In the obstacle's frame (built once per machine: fabhal/meshes.py)."""
-        return contact_grid(self.shape)
+        return contact_grid(self.shape, self.building)
 
 
 @dataclass(frozen=True)
@@ -114,7 +115,7 @@ class Contact:
     depth: float  # mm, the deepest point's penetration
 
 
-def contact_pairs(model: Model) -> Pairs:
+def contact_pairs(model: Model, report: Callable[[str], None] | None = None) -> Pairs:
     """Every movable, placed part against every environment with a shape and
     every other movable part, except where a surface connection stands the part
     on it (the whole face is the connection's own contact) and two movable parts
@@ -137,7 +138,8 @@ def contact_pairs(model: Model) -> Pairs:
                 continue
             joined = tuple((j.index, _reach(j.a.primitive) + _reach(j.b.primitive)) for j in joints)
             spec = model.parts[obstacle].spec
-            pairs.append(Pair(part, obstacle, points[part], spec, boxes[obstacle], joined))
+            building = None if report is None else _telling(report, model.parts[obstacle].type_name)
+            pairs.append(Pair(part, obstacle, points[part], spec, boxes[obstacle], joined, building))
     point_balls = {part: _ball_of_points(points[part]) for part in movable}
     return Pairs(
         tuple(pairs),
@@ -146,6 +148,10 @@ def contact_pairs(model: Model) -> Pairs:
         np.array([point_balls[pair.part] for pair in pairs]).reshape(-1, 4),
         np.array([box_balls[pair.obstacle] for pair in pairs]).reshape(-1, 4),
     )
+
+
+def _telling(report: Callable[[str], None], name: str) -> Callable[[], None]:
+    return lambda: report(f"measuring the shape of {name} for contact (once per machine)")
 
 
 def _ball_of_points(points: Array) -> Array:

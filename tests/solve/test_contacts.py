@@ -158,3 +158,24 @@ def test_parts_left_inside_each_other_are_never_solved(tmp_path: Path) -> None:
     depth = float(overlap.message.split(" is ")[1].split(" mm")[0])
     assert 5.5 <= depth <= 10.5
     assert overlap.span is not None and overlap.span.line == 16
+
+
+def test_building_a_contact_grid_is_announced(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """A grid is built once per machine (0.1-10 s): with an empty cache the
+    solve says whose shape it is measuring, once per part type, and not again
+    when the grids are cached."""
+    from fabhal import meshes
+
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "cache"))
+    monkeypatch.setattr(meshes, "_CONTACT_CACHE", {})
+    program = REPO / "programs" / "mug_hanger.fhl"
+    said: list[str] = []
+    assert api.solve(program, progress=said.append).status == "solved"
+    measured = [line for line in said if line.startswith("measuring the shape of")]
+    assert measured and len(measured) == len(set(measured))
+    # the wall beside the chain is near the hooks and the mug: its grid is needed
+    assert "measuring the shape of Surface for contact (once per machine)" in measured
+    monkeypatch.setattr(meshes, "_CONTACT_CACHE", {})
+    again: list[str] = []
+    api.solve(program, progress=again.append)
+    assert not [line for line in again if line.startswith("measuring")]
