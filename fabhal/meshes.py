@@ -302,6 +302,28 @@ def contact_points(spec: PartSpec) -> Array:
     return _cached_array(spec, "points", _sample_points)  # type: ignore[return-value]
 
 
+def obstacle_bounds(spec: PartSpec) -> Array:
+    """(2, 3) mm, part frame: the bounds of the part as an obstacle (its contact
+    grid's mesh: a surface primitive is a slab behind its face, `_solid_shape`),
+    without building that mesh."""
+    low, high = (np.asarray(corner, dtype=float) for corner in mass_properties(spec).bounds)
+    for primitive in spec.primitives:
+        if primitive.kind != "surface":
+            continue
+        half_length, half_width = primitive.params["length"] / 2, primitive.params["width"] / 2
+        corners = np.array(
+            [
+                (x, y, z, 1.0)
+                for x in (-half_length, half_length)
+                for y in (-half_width, half_width)
+                for z in (-SURFACE_SLAB_MM, 0.0)
+            ]
+        )
+        placed = corners @ np.asarray(primitive.base_frame(), dtype=float).T
+        low, high = np.minimum(low, placed[:, :3].min(axis=0)), np.maximum(high, placed[:, :3].max(axis=0))
+    return np.array([low, high])
+
+
 def _solid_shape(primitive: Primitive) -> trimesh.Trimesh:
     """A primitive's shape as an obstacle: a surface primitive is a slab behind its face."""
     import trimesh

@@ -30,7 +30,7 @@ from numpy.typing import NDArray
 from fabhal.kinematics.contact import DistanceGrid, penalty
 from fabhal.kinematics.frames import Array, angular_velocities
 from fabhal.library import PartSpec
-from fabhal.meshes import contact_grid, contact_points, mass_properties
+from fabhal.meshes import contact_grid, contact_points, obstacle_bounds
 from fabhal.model import Forward, Joint, Model
 from fabhal.primitives import Primitive
 
@@ -160,9 +160,9 @@ def _ball_of_points(points: Array) -> Array:
 
 
 def _box(spec: PartSpec) -> Array:
-    """(2, 3) the part's mesh's bounds, where any point inside it must be (its
-    grid is not built to find out: most pairs never come near)."""
-    return np.array(mass_properties(spec).bounds, dtype=float)
+    """(2, 3) the part's bounds as an obstacle, where any point inside it must be
+    (its grid is not built to find out: most pairs never come near)."""
+    return obstacle_bounds(spec)
 
 
 def _ball_of_box(box: Array) -> Array:

@@ -179,3 +179,32 @@ def test_building_a_contact_grid_is_announced(tmp_path: Path, monkeypatch: pytes
     again: list[str] = []
     api.solve(program, progress=again.append)
     assert not [line for line in again if line.startswith("measuring")]
+
+
+MUG_BY_A_WALL = """\
+environment rod = Rod(length: 500, radius: 2) at (0, 0, 300) rot (90, 0, 90)
+environment wall = Surface(length: 800, width: 600) at (0, 45, 0) rot (90, 0, 0)
+mug = Mug()
+connect mug.hook -- rod
+target mug.hook at (0, 0, 250) rot (0, 0, 90)
+"""
+
+
+def test_a_surface_environment_is_a_solid_wall(tmp_path: Path) -> None:
+    """A mug hung from a rod 45 mm in front of a wall given as a surface (a
+    40 mm slab behind its face). Hanging free, its body (radius about 45 mm,
+    hanging off its handle) would cross the wall's face: it must stay out of it
+    (no point more than 1 mm in) and lean away, its centre of mass on the far
+    side of the rod from the wall (y < 0). The wall was once skipped: the
+    look-up only searched the surface's 0.1 mm drawing, not its slab."""
+    program = tmp_path / "mug.fhl"
+    program.write_text(MUG_BY_A_WALL)
+    result = api.solve(program)
+    solution = result.solution
+    assert solution is not None
+    assert max(deepest(solution).values()) < 1.0
+    mug = solution.model.part_index("mug")
+    from fabhal.meshes import mass_properties
+
+    centre = solution.frames[mug][:3, :3] @ mass_properties(solution.model.parts[mug].spec).center_of_mass
+    assert (centre + solution.frames[mug][:3, 3])[1] < 0.0
