@@ -91,7 +91,9 @@ is not verified at rest (E503) has the status `not_at_rest`.
 
 --time-limit bounds the whole command (checking included): at the limit the
 best result so far is reported, with warning W502; if the loops of the design
-are not even closed by then, the status is `out_of_time`.
+are not even closed by then, the status is `out_of_time`. It does not bound
+measuring a part's shape for contact (up to 10 s, once per machine, said on
+the progress line as it happens).
 
 exit status: 0 solved, 1 falls apart / not at rest / infeasible / out of time / errors in
 the program, 2 a file could not be read (or an internal error).
