@@ -310,18 +310,22 @@ def obstacle_bounds(spec: PartSpec) -> Array:
     for primitive in spec.primitives:
         if primitive.kind != "surface":
             continue
-        half_length, half_width = primitive.params["length"] / 2, primitive.params["width"] / 2
-        corners = np.array(
-            [
-                (x, y, z, 1.0)
-                for x in (-half_length, half_length)
-                for y in (-half_width, half_width)
-                for z in (-SURFACE_SLAB_MM, 0.0)
-            ]
-        )
-        placed = corners @ np.asarray(primitive.base_frame(), dtype=float).T
-        low, high = np.minimum(low, placed[:, :3].min(axis=0)), np.maximum(high, placed[:, :3].max(axis=0))
+        extents, placement = _slab(primitive)
+        signs = np.array([(x, y, z) for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], dtype=float)
+        corners = np.hstack([signs * extents / 2, np.ones((8, 1))]) @ placement.T
+        low, high = np.minimum(low, corners[:, :3].min(axis=0)), np.maximum(high, corners[:, :3].max(axis=0))
     return np.array([low, high])
+
+
+def _slab(primitive: Primitive) -> tuple[Array, Array]:
+    """A surface primitive as an obstacle: the extents (3,) mm of the slab behind
+    its face and the placement (4, 4) of the slab's centre in the part's frame."""
+    p = primitive.params
+    behind = np.eye(4)
+    behind[2, 3] = -SURFACE_SLAB_MM / 2
+    return np.array([p["length"], p["width"], SURFACE_SLAB_MM]), np.asarray(
+        primitive.base_frame(), dtype=float
+    ) @ behind
 
 
 def _solid_shape(primitive: Primitive) -> trimesh.Trimesh:
@@ -330,11 +334,8 @@ def _solid_shape(primitive: Primitive) -> trimesh.Trimesh:
 
     if primitive.kind != "surface":
         return primitive_mesh(primitive)
-    p = primitive.params
-    slab = trimesh.creation.box(extents=(p["length"], p["width"], SURFACE_SLAB_MM))
-    slab.apply_translation((0.0, 0.0, -SURFACE_SLAB_MM / 2))
-    slab.apply_transform(primitive.base_frame())
-    return slab
+    extents, placement = _slab(primitive)
+    return trimesh.creation.box(extents=extents, transform=placement)
 
 
 def _build_grid(spec: PartSpec) -> DistanceGrid:

@@ -512,8 +512,9 @@ def build_model(program: FlatProgram) -> Model:
         for joint in joints
         for i in (*_resting_surface(joint), *_fixed_rod_line(joint, program.parts), *_threaded_centre(joint))
     )
-    on_floors = [joint for joint in joints if _floor_and_object(joint) is not None]
-    standing = tuple(_standing(joint) for joint in on_floors if not joint.connection.fixed)
+    standing = tuple(
+        s for joint in joints if not joint.connection.fixed and (s := _standing(joint)) is not None
+    )
     return Model(
         program, program.parts, tuple(joints), tree, closures, tuple(variables), unplaced, pinned, standing
     )
@@ -585,9 +586,7 @@ def _keep_on_floor(joint: Joint, variables: list[DofVariable]) -> None:
         return
     floor, standing = sides
     for i, size in zip(floor.dof_indices[:2], ("width", "length"), strict=True):
-        margin = min(standing.primitive.params[size] / (2.0 * floor.primitive.params[size]), 0.5)
-        variable = variables[i]
-        variables[i] = replace(variable, dof=replace(variable.dof, low=margin, high=1.0 - margin))
+        _keep_within(variables, i, standing.primitive.params[size] / (2.0 * floor.primitive.params[size]))
 
 
 COAXIAL = ({"TubeCtl", "Tube"}, {"TubeCtl", "Rod"})
@@ -616,14 +615,23 @@ def _keep_threaded(joint: Joint, variables: list[DofVariable]) -> None:
     if sides is None:
         return
     shorter, longer = sides
-    margin = shorter.primitive.params["length"] / (2.0 * longer.primitive.params["length"])
-    i = longer.dof_indices[0]
+    _keep_within(
+        variables,
+        longer.dof_indices[0],
+        shorter.primitive.params["length"] / (2.0 * longer.primitive.params["length"]),
+    )
+
+
+def _keep_within(variables: list[DofVariable], i: int, margin: float) -> None:
+    """Narrow the slide DoF i to [margin, 1 - margin] (a margin past the middle: the middle)."""
+    margin = min(margin, 0.5)
     variables[i] = replace(variables[i], dof=replace(variables[i].dof, low=margin, high=1.0 - margin))
 
 
-def _standing(joint: Joint) -> Standing:
+def _standing(joint: Joint) -> Standing | None:
     sides = _floor_and_object(joint)
-    assert sides is not None
+    if sides is None:
+        return None
     floor, standing = sides
     t1, t2 = floor.dof_indices[:2]
     base = standing.primitive.params

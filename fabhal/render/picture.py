@@ -19,6 +19,7 @@ import numpy as np
 
 from fabhal.kinematics.frames import Array
 from fabhal.render.raster import rasterize
+from fabhal.render.scene import CONTACT_COLOR
 
 if TYPE_CHECKING:
     from PIL import ImageDraw
@@ -233,7 +234,8 @@ def _header(draw: ImageDraw.ImageDraw, scene: Scene, summary: dict[str, Any], wi
         ("target", (245, 140, 31)),
     ]
     if any(item.role == "contact" for item in scene.items):
-        legend.append(("contact, force on the part", (204, 38, 178)))
+        red, green, blue = (round(255 * c) for c in CONTACT_COLOR)
+        legend.append(("contact, force on the part", (red, green, blue)))
     legend.append(("requested target axes: x y z", None))
     font = _font(14)
     widths = [int(draw.textlength(text, font=font)) + (18 if color else 0) + 18 for text, color in legend]

@@ -780,24 +780,27 @@ def _in_a_corner(problem: Problem, x: Array, lean: int) -> bool:
     dof = model.variables[slide].dof
     if dof.name != "t" or slide == lean:
         return False
-    low, high = model.bounds()
-    at_low = x[slide] - low[slide] <= BOUND_TOLERANCE and not dof.low_open
-    at_high = high[slide] - x[slide] <= BOUND_TOLERANCE and not dof.high_open
-    return bool(at_low or at_high)
+    end = _end_of(*model.bounds(), slide, x)
+    return (end == "min" and not dof.low_open) or (end == "max" and not dof.high_open)
 
 
 def _resting_ends(problem: Problem, x: Array) -> dict[int, str]:
     """The problem's free DoFs (by position in `free`) resting on an end of
     their range: "min" or "max"."""
     low, high = problem.model.bounds()
-    span = np.where(np.isfinite(high - low), high - low, 1.0)
-    resting = {}
-    for k, i in enumerate(problem.free):
-        if np.isfinite(low[i]) and x[i] - low[i] <= BOUND_TOLERANCE * span[i]:
-            resting[k] = "min"
-        elif np.isfinite(high[i]) and high[i] - x[i] <= BOUND_TOLERANCE * span[i]:
-            resting[k] = "max"
-    return resting
+    ends = {k: _end_of(low, high, int(i), x) for k, i in enumerate(problem.free)}
+    return {k: end for k, end in ends.items() if end is not None}
+
+
+def _end_of(low: Array, high: Array, i: int, x: Array) -> str | None:
+    """The end of its range DoF i rests on at x ("min", "max"), within
+    BOUND_TOLERANCE of the range; None inside it."""
+    span = high[i] - low[i] if np.isfinite(high[i] - low[i]) else 1.0
+    if np.isfinite(low[i]) and x[i] - low[i] <= BOUND_TOLERANCE * span:
+        return "min"
+    if np.isfinite(high[i]) and high[i] - x[i] <= BOUND_TOLERANCE * span:
+        return "max"
+    return None
 
 
 def _weight(masses: Array) -> float:
@@ -849,7 +852,7 @@ def _overlap_diagnostic(model: Model, contact: Contact) -> Diagnostic:
     )
 
 
-def _lean_diagnostic(model: Model, lean: Lean, flipped: str | None = None) -> Diagnostic:
+def _lean_diagnostic(model: Model, lean: Lean) -> Diagnostic:
     variable = model.variables[lean.dof]
     joint = model.joints[lean.joint]
     end = joint.connection.a if variable.side == "a" else joint.connection.b
@@ -859,9 +862,8 @@ def _lean_diagnostic(model: Model, lean: Lean, flipped: str | None = None) -> Di
         f"not at rest: only the model's limit of the lean of `{end}` (phi = {limit:g}) holds the "
         f"hack here ({100 * lean.push:.0f} % of its weight per mm); a real hook or ring would tilt on",
         joint.connection.span,
-        flipped
-        or "this way of connecting does not hang here: turn a connection the other way (`flip`), or hang "
-        "the part from a second point",
+        "this way of connecting does not hang here: turn a connection the other way (`flip`), or hang "
+        "the part from a second point",  # `_with_flip_advice` says which way, where it knows
     )
 
 

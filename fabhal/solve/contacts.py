@@ -71,7 +71,7 @@ class Pairs:
     parts: Index  # (K,) the part of each pair
     obstacles: Index  # (K,) its obstacle
     part_balls: Array  # (K, 4): centre and radius of the part's points
-    obstacle_balls: Array  # (K, 4): of the obstacle's shape, with the grid's margin
+    obstacle_balls: Array  # (K, 4): of the obstacle's bounds (`obstacle_bounds`)
 
     def __len__(self) -> int:
         return len(self.pairs)
@@ -126,7 +126,8 @@ def contact_pairs(model: Model, report: Callable[[str], None] | None = None) -> 
     for joint in model.joints:
         between.setdefault(frozenset((joint.a.part, joint.b.part)), []).append(joint)
     points = {part: contact_points(model.parts[part].spec) for part in movable}
-    boxes = {i: _box(model.parts[i].spec) for i in obstacles}
+    # where any point inside an obstacle must be, without building its grid: most pairs never come near
+    boxes = {i: obstacle_bounds(model.parts[i].spec) for i in obstacles}
     box_balls = {i: _ball_of_box(box) for i, box in boxes.items()}
     pairs = []
     for part in movable:
@@ -157,12 +158,6 @@ def _telling(report: Callable[[str], None], name: str) -> Callable[[], None]:
 def _ball_of_points(points: Array) -> Array:
     centre = (points.min(axis=0) + points.max(axis=0)) / 2
     return np.append(centre, np.linalg.norm(points - centre, axis=1).max())
-
-
-def _box(spec: PartSpec) -> Array:
-    """(2, 3) the part's bounds as an obstacle, where any point inside it must be
-    (its grid is not built to find out: most pairs never come near)."""
-    return obstacle_bounds(spec)
 
 
 def _ball_of_box(box: Array) -> Array:
@@ -230,6 +225,11 @@ class Touching:
         np.add.at(out, self.pair, values)
         return out
 
+    def resultants(self, push: Array, count: int) -> tuple[Array, Array]:
+        """Pushes (M, 3) at the touching points, per pair: (count, 3) forces and
+        (count, 3) their moments about the world origin."""
+        return self.per_pair(push, count), self.per_pair(np.cross(self.world, push), count)
+
 
 def _inside(model: Model, fwd: Forward, pairs: Pairs) -> Touching:
     """The points inside an obstacle. The pairs near enough to look at are
@@ -262,14 +262,14 @@ def _look_inside(model: Model, fwd: Forward, pairs: Pairs) -> Touching:
     return Touching(which, world, depth, normal)
 
 
-def _loads(pairs: Pairs, touching: Touching, push: Array, parts: int) -> tuple[Array, Array]:
-    """The pushes (M, 3) on the touching points as loads: (parts, 3) forces and
-    their moments about the world origin on each part, the reaction on the
-    obstacle (an environment's is never used: it does not move)."""
-    forces = touching.per_pair(push, len(pairs))
-    moments = touching.per_pair(np.cross(touching.world, push), len(pairs))
+def _on_parts(
+    resting: Index, rests_on: Index, forces: Array, moments: Array, parts: int
+) -> tuple[Array, Array]:
+    """Forces and moments (K, 3) that obstacles `rests_on` exert on parts
+    `resting`, as loads per part: (parts, 3) each, the reaction on the obstacle
+    (an environment's is never used: it does not move)."""
     part_forces, part_moments = np.zeros((parts, 3)), np.zeros((parts, 3))
-    for owners, sign in ((pairs.parts, 1.0), (pairs.obstacles, -1.0)):
+    for owners, sign in ((resting, 1.0), (rests_on, -1.0)):
         np.add.at(part_forces, owners, sign * forces)
         np.add.at(part_moments, owners, sign * moments)
     return part_forces, part_moments
@@ -299,7 +299,8 @@ def with_contacts(
         spring, slope = penalty(-touching.depth, stiffness)
         # d(spring) / d(point) as a load on the part (and the reaction on a movable
         # obstacle): their generalised forces are the gradient
-        loads = _loads(pairs, touching, slope[:, None] * touching.normal, len(model.parts))
+        forces, moments = touching.resultants(slope[:, None] * touching.normal, len(pairs))
+        loads = _on_parts(pairs.parts, pairs.obstacles, forces, moments, len(model.parts))
         return value + float(np.sum(spring)), gradient + model.wrench_gradient(fwd, *loads)
 
     return total
@@ -322,11 +323,10 @@ def penetration(model: Model, x: Array, pairs: Pairs) -> tuple[Array, Array]:
         return depths, rows
     # d(distance) / dx_j = normal . (w_j x p + v_j) for the DoFs that move the
     # part, less the same for those that move the obstacle (never an environment)
-    touched, which = np.unique(touching.pair, return_inverse=True)
-    weighted = touching.depth[:, None] * touching.normal
-    force, moment = np.zeros((len(touched), 3)), np.zeros((len(touched), 3))
-    np.add.at(force, which, weighted)
-    np.add.at(moment, which, np.cross(touching.world, weighted))
+    touched = np.unique(touching.pair)
+    force, moment = (
+        r[touched] for r in touching.resultants(touching.depth[:, None] * touching.normal, len(pairs))
+    )
     change = force @ fwd.twists[:, :3, 3].T + moment @ angular_velocities(fwd.twists).T
     moves = model.layout.moves.astype(float)
     change *= (moves[:, pairs.parts[touched]] - moves[:, pairs.obstacles[touched]]).T
@@ -342,8 +342,7 @@ def contacts_at(model: Model, x: Array, pairs: Pairs, weight: float) -> tuple[Co
     touching = _inside(model, model.forward(x, with_twists=True), pairs)
     slope = penalty(-touching.depth, _stiffness(weight))[1]
     push = -1000.0 * slope[:, None] * touching.normal  # J/mm -> N
-    forces = touching.per_pair(push, len(pairs))
-    moments = touching.per_pair(np.cross(touching.world, push), len(pairs))
+    forces, moments = touching.resultants(push, len(pairs))
     total_depth = touching.per_pair(touching.depth, len(pairs))
     points = touching.per_pair(touching.depth[:, None] * touching.world, len(pairs))
     deepest = np.zeros(len(pairs))
@@ -364,9 +363,10 @@ def contacts_at(model: Model, x: Array, pairs: Pairs, weight: float) -> tuple[Co
 def contact_loads(model: Model, contacts: tuple[Contact, ...]) -> tuple[Array, Array]:
     """(P, 3) N the contacts' forces on each part (a movable part that another
     rests on bears the reaction), and (P, 3) N mm their moments about the world origin."""
-    forces, moments = np.zeros((len(model.parts), 3)), np.zeros((len(model.parts), 3))
-    for contact in contacts:
-        for part, sign in ((contact.part, 1.0), (contact.rests_on, -1.0)):
-            forces[part] += sign * contact.force
-            moments[part] += sign * contact.moment
-    return forces, moments
+    return _on_parts(
+        np.array([c.part for c in contacts], dtype=int),
+        np.array([c.rests_on for c in contacts], dtype=int),
+        np.array([c.force for c in contacts]).reshape(-1, 3),
+        np.array([c.moment for c in contacts]).reshape(-1, 3),
+        len(model.parts),
+    )
