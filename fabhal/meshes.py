@@ -19,6 +19,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
+from numpy.typing import NDArray
 
 from fabhal.kinematics.contact import DistanceGrid, grid_spacing, signed_distance_grid
 from fabhal.kinematics.frames import Array
@@ -300,6 +301,23 @@ def contact_grid(spec: PartSpec, building: Callable[[], None] | None = None) -> 
 def contact_points(spec: PartSpec) -> Array:
     """(N, 3) points on the movable part's surface, in its frame (seeded: the same every run)."""
     return _cached_array(spec, "points", _sample_points)  # type: ignore[return-value]
+
+
+def near_primitive(points: Array, primitive: Primitive, reach: float) -> NDArray[np.bool_]:
+    """(N,) whether each point (part frame, mm) lies within `reach` of the
+    primitive's shape (`primitive_mesh`), or inside it."""
+    import trimesh
+    from scipy.spatial import cKDTree
+
+    shape = primitive_mesh(primitive)
+    # samples about a millimetre apart: far finer than the reach
+    count = int(np.clip(shape.area, 500, 50_000))
+    samples, faces = trimesh.sample.sample_surface(shape, count, seed=0)
+    distance, nearest = cKDTree(samples).query(points)
+    # behind the nearest sample's outward normal is inside
+    behind = np.einsum("ij,ij->i", points - samples[nearest], shape.face_normals[faces][nearest]) < 0.0
+    near: NDArray[np.bool_] = (distance <= reach) | behind
+    return near
 
 
 def obstacle_bounds(spec: PartSpec) -> Array:

@@ -12,10 +12,14 @@ what it takes. Between movable parts they serve step 1 (`penetration`) and
 the final check (fabhal/solve/__init__.py, E508); the push acts on both parts,
 equal and opposite. Contacts are frictionless (a part may slide along the
 wall), which errs towards reporting that a hack moves. The contact that a
-connection itself makes is not a collision: around each connection point the
-two parts it joins may meet (within the reach of its primitives), and two
-movable parts joined by a connection are not tested against each other at
-all (how they meet is the connection's: its DoFs and ranges).
+connection itself makes is not a collision: a part's points around its own
+primitive of a connection to an environment (within the reach of the other
+side's primitive) are not tested against that environment, and two movable
+parts joined by a connection are not tested against each other at all (how
+they meet is the connection's: its DoFs and ranges). Which points are left
+out is fixed in the part's frame, not measured from where the connection
+touches at each step: a point switched in and out at full depth would make
+the settle's energy jump.
 """
 
 from __future__ import annotations
@@ -30,7 +34,7 @@ from numpy.typing import NDArray
 from fabhal.kinematics.contact import DistanceGrid, penalty
 from fabhal.kinematics.frames import Array, angular_velocities
 from fabhal.library import PartSpec
-from fabhal.meshes import contact_grid, contact_points, obstacle_bounds
+from fabhal.meshes import contact_grid, contact_points, near_primitive, obstacle_bounds
 from fabhal.model import Forward, Joint, Model
 from fabhal.primitives import Primitive
 
@@ -49,11 +53,9 @@ class Pair:
 
     part: int
     obstacle: int  # an environment, or another movable part
-    points: Array  # (N, 3) mm in the part's frame
+    points: Array  # (N, 3) mm in the part's frame, less those a connection to the obstacle touches with
     shape: PartSpec  # the obstacle's: its grid is built when first needed (`grid`)
     box: Array  # (2, 3) mm, the obstacle's mesh's bounds in its frame
-    # connections joining the two: (joint index, reach in mm) around whose point they may meet
-    joined: tuple[tuple[int, float], ...]
     building: Callable[[], None] | None = None  # told before the obstacle's grid is first built
 
     @cached_property
@@ -126,6 +128,8 @@ def contact_pairs(model: Model, report: Callable[[str], None] | None = None) -> 
     for joint in model.joints:
         between.setdefault(frozenset((joint.a.part, joint.b.part)), []).append(joint)
     points = {part: contact_points(model.parts[part].spec) for part in movable}
+    # one array per kind of pair, so that pairs alike are looked up at once
+    kept: dict[tuple[object, ...], Array] = {}
     # where any point inside an obstacle must be, without building its grid: most pairs never come near
     boxes = {i: obstacle_bounds(model.parts[i].spec) for i in obstacles}
     box_balls = {i: _ball_of_box(box) for i, box in boxes.items()}
@@ -137,10 +141,17 @@ def contact_pairs(model: Model, report: Callable[[str], None] | None = None) -> 
                 continue
             if any("surface" in (j.a.primitive.kind, j.b.primitive.kind) for j in joints):
                 continue
-            joined = tuple((j.index, _reach(j.a.primitive) + _reach(j.b.primitive)) for j in joints)
+            # (its own primitive, the obstacle's) for each connection joining them
+            touching = tuple(
+                (j.a.primitive, j.b.primitive) if j.a.part == part else (j.b.primitive, j.a.primitive)
+                for j in joints
+            )
+            key = (model.parts[part].type_name, *((own.name, _reach(other)) for own, other in touching))
+            if key not in kept:
+                kept[key] = _away_from(points[part], touching)
             spec = model.parts[obstacle].spec
             building = None if report is None else _telling(report, model.parts[obstacle].type_name)
-            pairs.append(Pair(part, obstacle, points[part], spec, boxes[obstacle], joined, building))
+            pairs.append(Pair(part, obstacle, kept[key], spec, boxes[obstacle], building))
     point_balls = {part: _ball_of_points(points[part]) for part in movable}
     return Pairs(
         tuple(pairs),
@@ -149,6 +160,14 @@ def contact_pairs(model: Model, report: Callable[[str], None] | None = None) -> 
         np.array([point_balls[pair.part] for pair in pairs]).reshape(-1, 4),
         np.array([box_balls[pair.obstacle] for pair in pairs]).reshape(-1, 4),
     )
+
+
+def _away_from(points: Array, touching: tuple[tuple[Primitive, Primitive], ...]) -> Array:
+    """The points farther from each own primitive's shape than the other's reach."""
+    keep = np.ones(len(points), dtype=bool)
+    for own, other in touching:
+        keep &= ~near_primitive(points, own, _reach(other))
+    return points[keep]
 
 
 def _telling(report: Callable[[str], None], name: str) -> Callable[[], None]:
@@ -181,11 +200,11 @@ def _reach(primitive: Primitive) -> float:
     return sizes.get(primitive.kind, 0.0) + CONNECTION_CLEARANCE_MM
 
 
-def _distances(model: Model, fwd: Forward, pairs: Pairs, group: list[int]) -> tuple[Array, Array, Array]:
+def _distances(fwd: Forward, pairs: Pairs, group: list[int]) -> tuple[Array, Array, Array]:
     """Pairs of one kind (the same points against the same grid) at once: their
     points in the world (G, N, 3), their signed distances from the obstacle
-    (G, N; +inf where a connection's own contact) and the distances' gradients
-    in the world (G, N, 3)."""
+    (G, N; +inf where not looked up) and the distances' gradients in the world
+    (G, N, 3)."""
     first = pairs.pairs[group[0]]
     frames = fwd.frames
     part, obstacle = frames[pairs.parts[group]], frames[pairs.obstacles[group]]
@@ -200,11 +219,6 @@ def _distances(model: Model, fwd: Forward, pairs: Pairs, group: list[int]) -> tu
     distances[boxed], gradients[boxed] = first.grid.sample(flat[boxed])
     distance: Array = distances.reshape(len(group), -1)
     gradient = gradients.reshape(len(group), -1, 3) @ obstacle[:, :3, :3].transpose(0, 2, 1)
-    connections = None
-    for g, k in enumerate(group):
-        for joint, reach in pairs.pairs[k].joined:
-            connections = model.connection_points(fwd) if connections is None else connections
-            distance[g, np.linalg.norm(world[g] - connections[joint], axis=1) < reach] = np.inf
     return world, distance, gradient
 
 
@@ -252,7 +266,7 @@ def _look_inside(model: Model, fwd: Forward, pairs: Pairs) -> Touching:
         kinds.setdefault((id(pair.points), id(pair.grid)), []).append(k)
     found: list[tuple[Array, Array, Array, Array]] = []
     for group in kinds.values():
-        world, distance, normal = _distances(model, fwd, pairs, group)
+        world, distance, normal = _distances(fwd, pairs, group)
         inside = distance < 0.0
         which = np.broadcast_to(np.array(group)[:, None], inside.shape)[inside]
         found.append((which, world[inside], -distance[inside], normal[inside]))

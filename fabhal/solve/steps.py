@@ -19,7 +19,7 @@ import itertools
 import time
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field, replace
-from functools import cached_property
+from functools import cached_property, partial
 from typing import Any
 
 import numpy as np
@@ -59,6 +59,11 @@ FIT_STALL_STEPS = 15  # see _fit_stalled
 # longer steps from a nearly singular model took up to 18 halvings each
 MAX_STEP_MM = 50.0
 SETTLE_ITERATIONS = 400  # of one settle; each iteration is one to a few energy evaluations
+# a settle ends when its last SETTLE_STALL_STEPS steps lowered the energy less than the
+# force left at rest does over SETTLE_STALL_MM (at 1e-4 of the weight: the whole
+# assembly lowered by a micrometre); whether it is at rest is then verified by statics
+SETTLE_STALL_STEPS = 20
+SETTLE_STALL_MM = 10.0
 
 # rows (per loop) of the 12 closure residuals kept as the 6 constraint equations:
 # position (3) and vee((R - R^T) / 2) from the 9 rotation entries
@@ -389,8 +394,21 @@ def settle(
     # a long loop settles slowly (its energy valley is flat): more DoFs, more iterations
     iterations = max(SETTLE_ITERATIONS, 12 * len(problem.free))
     return problem.minimize(
-        objective, start, max_iterations=iterations, gtol=at_rest, measure_curvature=True, curvature=curvature
+        objective,
+        start,
+        max_iterations=iterations,
+        gtol=at_rest,
+        measure_curvature=True,
+        curvature=curvature,
+        stalled=partial(_settle_stalled, stall=at_rest * SETTLE_STALL_MM),
     )
+
+
+def _settle_stalled(energies: list[float], stall: float) -> bool:
+    """The last SETTLE_STALL_STEPS steps lowered the energy by less than `stall`
+    (joules): creeping along a flat valley whose floor a contact's kinks
+    make rough (the caddy's loop crept 0.4 degrees in 200 iterations)."""
+    return len(energies) > SETTLE_STALL_STEPS and energies[-1 - SETTLE_STALL_STEPS] - energies[-1] < stall
 
 
 def _free_objective(problem: Problem, energy: Callable[[Array], tuple[float, Array]]) -> Objective:

@@ -11,8 +11,10 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from scipy.spatial import cKDTree
 
 from fabhal import api
+from fabhal.meshes import contact_points, primitive_mesh
 from fabhal.solve import Solution
 from fabhal.solve.contacts import _distances, contact_pairs
 from fabhal.solve.forces import weight_newtons
@@ -34,7 +36,7 @@ def deepest(solution: Solution) -> dict[str, float]:
     depth: dict[str, float] = {}
     pairs = contact_pairs(model)
     for k, pair in enumerate(pairs.pairs):
-        distance = _distances(model, fwd, pairs, [k])[1][0]
+        distance = _distances(fwd, pairs, [k])[1][0]
         name = model.parts[pair.part].name
         depth[name] = max(depth.get(name, 0.0), float(max(0.0, -distance.min())))
     return depth
@@ -208,3 +210,33 @@ def test_a_surface_environment_is_a_solid_wall(tmp_path: Path) -> None:
 
     centre = solution.frames[mug][:3, :3] @ mass_properties(solution.model.parts[mug].spec).center_of_mass
     assert (centre + solution.frames[mug][:3, 3])[1] < 0.0
+
+
+def test_a_connections_own_contact_is_left_out_in_the_parts_frame() -> None:
+    """The mug hanger's top S-hook hangs from the rod by its hook2 arc. Its
+    points around that arc (within the rod's reach: radius 2 + 5 mm clearance
+    of the arc's shape) are not tested against the rod's environment, whatever
+    the configuration: the set is fixed in the hook's frame, so no point is
+    switched in or out at full depth while the settle moves (that made the
+    caddy's energy jump). The S-hook's two arcs are alike, so about half its
+    64 points are left out: every point nearer its hook2 arc than its hook1
+    arc, and those of hook1's arc where the two meet within 7 mm of hook2
+    (measured to the arc mesh's vertices, at most 2 mm apart: 9 mm). Against
+    the wall (no connection) all count."""
+    model = solved("mug_hanger.fhl").model
+    pairs = contact_pairs(model)
+    hook = next(i for i, part in enumerate(model.parts) if part.name == "chain.s[1]")
+    by_obstacle = {model.parts[p.obstacle].name: p for p in pairs.pairs if p.part == hook}
+    everything = contact_points(model.parts[hook].spec)
+    assert len(by_obstacle["wall"].points) == len(everything) == 64
+    kept = by_obstacle["rod"].points
+    arcs = {p.name: primitive_mesh(p).vertices for p in model.parts[hook].spec.primitives}
+
+    def from_arcs(points: np.ndarray) -> dict[str, np.ndarray]:
+        return {name: cKDTree(vertices).query(points)[0] for name, vertices in arcs.items()}
+
+    near = from_arcs(kept)
+    assert np.all(near["hook1"] < near["hook2"])
+    left_out = everything[~(everything[:, None] == kept[None]).all(axis=2).any(axis=1)]
+    assert np.all(from_arcs(left_out)["hook2"] <= 9.0)
+    assert 24 <= len(kept) <= 40
