@@ -75,11 +75,13 @@ def solve(
     time_limit: float | None = None,
     gravity: bool = True,
     progress: Callable[[str], None] | None = None,
+    two_step: bool = False,
 ) -> SolveResult:
     """Check, then (if the design can be built) solve. Raises load.InputError for an unreadable file.
 
     `time_limit` (seconds) counts from here and bounds every stage: reading,
-    checking (the loops' closure solve) and solving."""
+    checking (the loops' closure solve) and solving. `two_step`: the paper's
+    two steps only, without aiming the builder's choices (fabhal/solve/aim.py)."""
     from fabhal.solve import NumericFailure, SolveOptions
     from fabhal.solve import solve as run_solver
 
@@ -99,7 +101,12 @@ def solve(
     if loops is not None and not loops.closed:  # the time limit ended the check first
         return SolveResult("out_of_time", result, None, seed, timing)
     options = SolveOptions(
-        seed=seed, time_limit=time_limit, deadline=deadline, gravity=gravity, progress=progress
+        seed=seed,
+        time_limit=time_limit,
+        deadline=deadline,
+        gravity=gravity,
+        aim=not two_step,
+        progress=progress,
     )
     try:
         solution = run_solver(result.model, options, loops.x if loops is not None else None)

@@ -77,6 +77,7 @@ examples:
   fabhal solve --json {gallery}/bird_feeder.fhl      the result object on stdout
   fabhal solve -o result.json {gallery}/demo.fhl     ... or in a file
   fabhal solve --no-gravity my_hack.fhl             only step 1: closest to the target
+  fabhal solve --two-step {gallery}/demo.fhl        the paper's two steps, without aiming
   fabhal solve -D n=3 --seed 7 family.fhl           bind a param; another random start
   fabhal solve {gallery}/mug_hanger.fhl --render mug.png   ... and draw it (see `render`)
 
@@ -84,7 +85,10 @@ Step 1 moves the parts (through the connections' degrees of freedom) to bring
 the target closest to its requested frame; step 2 lets the assembly settle
 under gravity from there (clips and `fixed` connections hold; a part slides
 along a rod, or over the floor it stands on, only where gravity beats
-friction). If a connection would slide off an open end, or an object fall
+friction). Then the settings that stay put (where a clip grips a bar, where
+a part sits on a rod that friction holds) are aimed: chosen again so that the
+settled target hangs nearest the request (note N506 lists them; --two-step
+keeps step 1's). If a connection would slide off an open end, or an object fall
 over on its floor, from every start tried, the status is `falls_apart` and
 the message names the connection; a result that
 is not verified at rest (E503) has the status `not_at_rest`.
@@ -186,6 +190,12 @@ def _add_solver_options(command: argparse.ArgumentParser) -> None:
         help="stop with the best result so far after this many seconds (default: no limit)",
     )
     command.add_argument("--no-gravity", action="store_true", help="skip step 2 (settling under gravity)")
+    command.add_argument(
+        "--two-step",
+        action="store_true",
+        help="the paper's two steps only: keep where step 1 put the parts that stay put (a clip's grip, "
+        "a `fixed` connection, a part friction holds on a rod) instead of aiming them (to compare)",
+    )
     _add_define(command)
 
 
@@ -460,12 +470,14 @@ def _solve_with_status(args: argparse.Namespace) -> Any:
 
     solve_args = (args.file, dict(args.define), args.seed, args.time_limit, not args.no_gravity)
     if not sys.stderr.isatty():
-        return api.solve(*solve_args)
+        return api.solve(*solve_args, two_step=args.two_step)
     from rich.console import Console
 
     with Console(stderr=True).status(f"solving {args.file.name}: checking") as status:
         return api.solve(
-            *solve_args, progress=lambda doing: status.update(f"solving {args.file.name}: {doing}")
+            *solve_args,
+            progress=lambda doing: status.update(f"solving {args.file.name}: {doing}"),
+            two_step=args.two_step,
         )
 
 

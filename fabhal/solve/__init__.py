@@ -20,6 +20,7 @@ from fabhal.kinematics.frames import Array
 from fabhal.kinematics.statics import Wrenches
 from fabhal.meshes import mass_properties
 from fabhal.model import Joint, Model, build_model
+from fabhal.solve import aim as aim_mod
 from fabhal.solve import reach
 from fabhal.solve import target as target_mod
 from fabhal.solve.contacts import Contact, Pairs, contact_loads, contact_pairs, contacts_at, with_contacts
@@ -96,6 +97,9 @@ class SolveOptions:
     time_limit: float | None = None  # seconds, from the start of the command (for messages)
     deadline: float = float("inf")  # time.monotonic() when the time limit ends, for every stage
     gravity: bool = True
+    # choose what the builder sets once so that the settled target lands nearest (fabhal/solve/aim.py);
+    # False: the paper's two steps, those choices left where step 1 put them
+    aim: bool = True
     progress: Callable[[str], None] | None = None  # told what the solver is doing, for a status line
 
     def report(self, doing: str) -> None:
@@ -293,6 +297,9 @@ def _solve_once(model: Model, options: SolveOptions, loop_start: Array | None) -
                 settled = _settle(step1, start, masses, centres, goal, world)
             if disagreement is not None:
                 notes.append(disagreement)
+        if options.aim and not step1.out_of_time():
+            settled, aimed = _aimed(step1, settled, masses, centres, goal, pairs, options)
+            notes.extend(aimed)
         if not settled.falls and not _at_rest(settled) and np.isfinite(settled.equilibrium or 0.0):
             notes.append(
                 error(
@@ -347,6 +354,82 @@ def _solve_once(model: Model, options: SolveOptions, loop_start: Array | None) -
         settled.forces,
         settled.contacts,
     )
+
+
+def _aimed(
+    step1: Problem,
+    settled: Settled,
+    masses: Array,
+    centres: Array,
+    goal: target_mod.TargetGoal,
+    pairs: Pairs,
+    options: SolveOptions,
+) -> tuple[Settled, list[Diagnostic]]:
+    """The settled result with the builder's choices aimed (fabhal/solve/aim.py)
+    if that ranks first (`_rank`) and leaves no part inside another, with a note
+    saying what was chosen; else the result as it was."""
+    model = step1.model
+    chosen = aim_mod.choices(step1)
+    # a result that falls apart or leans on a stop is not aimed from: its "at rest" residuals mislead
+    if not len(chosen) or settled.falls or not np.all(np.isfinite(settled.x)):
+        return settled, []
+    options.report("step 3: aiming the settings that stay put, for where the hack hangs")
+    weight = _weight(masses)
+    world = pairs.against({i for i, part in enumerate(model.parts) if part.environment})
+    energy = with_contacts(model, potential(model, masses, centres), world, weight)
+    start = step1.full(aim_mod.aim(step1, settled.x, energy, goal, weight, chosen))
+    if not np.all(np.isfinite(start)) or step1.out_of_time():
+        return settled, []
+    aimed = _settle(step1, start, masses, centres, goal, world)
+    ranks = [_rank(goal, model.part_frames(s.x), s) for s in (aimed, settled)]
+    inside = any(c.depth > OVERLAP_KEPT_MM for c in contacts_at(model, aimed.x, pairs, weight))
+    if ranks[0] >= ranks[1] or inside:
+        return settled, []
+    return aimed, [_choice_note(step1, chosen, settled.x, aimed.x, goal)]
+
+
+# a choice that moved its connection less than this (mm; degrees as mm) is not worth telling
+CHOICE_TOLD_MM = 1.0
+
+
+def _choice_note(
+    step1: Problem, chosen: aim_mod.Index, before: Array, after: Array, goal: target_mod.TargetGoal
+) -> Diagnostic:
+    """N506: which choices aiming changed, to what, and what that gained."""
+    model = step1.model
+    lengths = mm_per_unit(model)
+    changed = [int(step1.free[k]) for k in chosen]
+    changed = [i for i in changed if abs(after[i] - before[i]) * lengths[i] > CHOICE_TOLD_MM]
+    position, rotation = target_mod.errors(goal, target_mod.achieved(goal, model.part_frames(after)))
+    was = target_mod.errors(goal, target_mod.achieved(goal, model.part_frames(before)))
+    by_connection: dict[int, list[str]] = {}
+    for i in changed:
+        by_connection.setdefault(model.variables[i].joint, []).append(
+            _choice_text(model, i, after[i], lengths[i])
+        )
+    told = "; ".join(
+        f"`{model.joints[j].connection.a} -- {model.joints[j].connection.b}` {', '.join(texts)}"
+        for j, texts in by_connection.items()
+    )
+    span = model.joints[model.variables[changed[0]].joint].connection.span if changed else goal.source.span
+    return Diagnostic(
+        Severity.NOTE,
+        "N506",
+        f"aimed: {told or 'choices kept'}; there the target hangs {position:.0f} mm and "
+        f"{rotation:.0f} degrees from the request (where step 1 left them: {was[0]:.0f} mm, "
+        f"{was[1]:.0f} degrees)",
+        span,
+        "these are set when building and stay put (a clip's grip, a `fixed` connection, where friction "
+        "holds a part on a rod): build them so; --two-step keeps step 1's",
+    )
+
+
+def _choice_text(model: Model, i: int, value: float, length: float) -> str:
+    """A chosen DoF's value as a builder sets it: along a primitive in mm, an angle in degrees."""
+    variable = model.variables[i]
+    if variable.dof.periodic or variable.dof.high > 1.0:
+        return f"{variable.dof.name} {value:.0f} degrees"
+    return f"{value * length:.0f} mm along {variable.name.rsplit('.', 1)[0]} (of {length:.0f})"
 
 
 @dataclass(frozen=True)

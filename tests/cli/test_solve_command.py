@@ -121,7 +121,11 @@ def test_the_solver_says_what_it_is_doing_for_the_status_line() -> None:
     heard: list[str] = []
     result = api.solve(REPO / "programs" / "mug_hanger.fhl", progress=heard.append)
     assert result.status == "solved"
-    assert heard == ["step 1: bringing the target to its frame", "step 2: settling under gravity"]
+    assert heard == [
+        "step 1: bringing the target to its frame",
+        "step 2: settling under gravity",
+        "step 3: aiming the settings that stay put, for where the hack hangs",
+    ]
 
 
 def test_no_status_line_when_stderr_is_not_a_terminal() -> None:

@@ -194,12 +194,13 @@ def test_of_equally_low_configurations_the_one_nearest_the_request_is_kept(
     for free. Without the pull towards the request the settled light points
     wherever the solver's path left it; with it, it turns back towards the
     request at the same energy (1e-6 J: the settles stop at 1e-4 of the weight
-    per mm) and stays at rest."""
+    per mm) and stays at rest. Step 2 alone (--two-step): aiming then changes
+    the clip's settings, and with them the energy."""
     program = REPO / "programs" / "clip_light_xs.fhl"  # loose: 12.6 degrees off; turned: 9.9
     monkeypatch.setattr(solve_module, "TARGET_PULL", 0.0)
-    loose = api.solve(program).solution
+    loose = api.solve(program, two_step=True).solution
     monkeypatch.undo()
-    turned = api.solve(program).solution
+    turned = api.solve(program, two_step=True).solution
     assert loose is not None and turned is not None
     assert turned.energy == pytest.approx(loose.energy, abs=1e-6)
     assert turned.target_errors()[1] < loose.target_errors()[1] - 2.0  # degrees

@@ -1,0 +1,132 @@
+"""Aiming: choose what the builder sets once so that the hack, once it has
+settled under gravity, hangs nearest the request.
+
+The paper's two steps fit the target with gravity off, then let gravity act,
+and step 2 keeps whatever step 1 left in the choices that stay put: the held
+DoFs of `fixed` connections and clips (where a clip grips a bar, at what
+angle) and where a part is placed on a rod, tube, edge or floor that friction
+then holds. Those were chosen blind to where the hack hangs (the demo's
+S-hook left at 86 % of the hanger's bar: the hanger tilts and the ring hangs
+117 mm from the request; at the bar's middle it hangs within a millimetre).
+
+Aiming fits again, from the settled configuration, asking for both at once:
+the target at its request, and every part that gravity moves at rest. The
+residuals are the target's (mm, degrees counted as mm) and the generalised
+force on each DoF that gravity moves (projected along the loops, as the
+equilibrium check measures it: a fraction of the weight per mm of motion)
+times FORCE_AS_MM; the unknowns are all the free DoFs, the choices among
+them. Gauss-Newton on that least-squares problem (fabhal/optimize.py): the
+target's Jacobian exact, the force's by forward differences of the exact
+energy gradient (a gradient per DoF), kept up to date between those by
+Broyden's secant updates (one gradient per step); the force's
+weight is raised in stages (a stiff start is ill-conditioned and stalls).
+A force within the equilibrium tolerance costs about a millimetre. Its
+answer only proposes the choices: step 2 settles from it with them held
+(friction from where the parts were placed) and the solver keeps whichever
+settled result ranks first, so aiming never makes an answer worse.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import numpy as np
+from numpy.typing import NDArray
+
+from fabhal.kinematics.frames import Array
+from fabhal.optimize import least_squares_objective
+from fabhal.solve import target as target_mod
+from fabhal.solve.forces import friction_slides, slide_dofs
+from fabhal.solve.steps import Problem
+
+Index = NDArray[np.intp]
+
+# a force left unbalanced of 1/FORCE_AS_MM of the weight per mm costs like 1 mm of
+# target error; raised in stages: 1 mm per 1 % of the weight, then per 0.1 % (the tolerance)
+FORCE_AS_MM = (100.0, 1000.0)
+AIM_EVALUATIONS = 30  # per stage
+DIFFERENCE_MM = 1e-4  # the forward-difference step, in mm of motion
+BROYDEN_STEPS = 8  # secant updates of the force's derivative before it is differenced afresh
+
+
+def choices(problem: Problem) -> Index:
+    """Positions in `problem.free` of the DoFs a builder sets once: those of
+    held connections and the slides that friction holds."""
+    model = problem.model
+    held = {i for joint in model.joints if joint.held for i in joint.a.dof_indices + joint.b.dof_indices}
+    chosen = held | set(slide_dofs(friction_slides(model)))
+    return np.array([k for k, i in enumerate(problem.free) if int(i) in chosen], dtype=int)
+
+
+def aim(
+    problem: Problem,
+    x: Array,
+    energy: Callable[[Array], tuple[float, Array]],
+    goal: target_mod.TargetGoal,
+    weight: float,
+    chosen: Index,
+) -> Array:
+    """Free DoFs (over `problem.free`) from the settled `x`: the target nearest
+    its request with the parts that gravity moves (all but `chosen`) at rest.
+    weight: the assembly's, joules per mm."""
+    model = problem.model
+    free, per_mm = problem.free, problem.scale
+    moving = np.setdiff1d(np.arange(len(free)), chosen)
+    low, high = (bound[free] for bound in model.bounds())
+
+    def unbalanced(v: Array) -> Array:
+        """(moving,) the generalised force on each DoF gravity moves, over the
+        weight per mm; along a loop, less what the loop's constraint carries; on
+        an end of its range, only what pushes it back inside."""
+        force = energy(problem.full(v))[1][free][moving] / per_mm[moving] / weight
+        if model.closures:
+            constraint = (problem.closure_jacobian(v) / per_mm)[:, moving]
+            multipliers = np.linalg.lstsq(constraint.T, -force, rcond=None)[0]
+            force = force + constraint.T @ multipliers
+        at_low, at_high = v[moving] <= low[moving], v[moving] >= high[moving]
+        force[at_low & (force > 0)] = 0.0  # pressed onto an end: the end carries it
+        force[at_high & (force < 0)] = 0.0
+        return force
+
+    def differenced(v: Array, force: Array) -> Array:
+        """The force's derivative by forward differences of the energy's exact gradient."""
+        change = np.empty((len(force), len(v)))
+        for k in range(len(v)):
+            step = DIFFERENCE_MM / per_mm[k]
+            moved = v.copy()
+            moved[k] += step
+            change[:, k] = (unbalanced(moved) - force) / step
+        return change
+
+    def with_jacobian(force_as_mm: float) -> Callable[[Array], tuple[Array, Array]]:
+        # the last point, its force and the force's derivative there: between fresh
+        # differences (a gradient per DoF), Broyden's secant update (one)
+        last: list[tuple[Array, Array, Array, int]] = []
+
+        def residual_and_jacobian(v: Array) -> tuple[Array, Array]:
+            fwd = model.forward(problem.full(v), with_twists=True)
+            target = target_mod.residual(goal, target_mod.achieved(goal, fwd.frames))
+            force = unbalanced(v)
+            if last and last[0][3] < BROYDEN_STEPS:
+                before, force_before, change, age = last.pop()
+                moved = v - before
+                if moved @ moved > 0.0:
+                    change = change + np.outer(force - force_before - change @ moved, moved) / (moved @ moved)
+                last.append((v.copy(), force, change, age + 1))
+            else:
+                last[:] = [(v.copy(), force, differenced(v, force), 0)]
+            change = last[0][2]
+            jacobian = np.vstack(
+                [target_mod.residual_jacobian(goal, model, fwd)[:, free], force_as_mm * change]
+            )
+            return np.concatenate([target, force_as_mm * force]), jacobian
+
+        return residual_and_jacobian
+
+    v = x[free].copy()
+    for force_as_mm in FORCE_AS_MM:
+        if problem.out_of_time():
+            break
+        objective = least_squares_objective(with_jacobian(force_as_mm))
+        v = problem.minimize(objective, v, max_evaluations=AIM_EVALUATIONS, ftol=1e-10).x
+    return v

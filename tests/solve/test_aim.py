@@ -1,0 +1,104 @@
+"""Aiming (fabhal/solve/aim.py): what the builder sets once (where a part is
+placed on a rod that friction holds, a clip's grip) is chosen so that the
+settled hack hangs nearest the request, never worse than the paper's two steps.
+
+Tolerances: positions to a few millimetres (the settle stops at 1e-4 of the
+weight per mm; the effects asserted are tens of millimetres); the aimed
+placement to 3 % of the bar (a few mm of a 390 mm bar move the ring less than 1 mm).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from fabhal import api
+from fabhal.solve import Solution, _mass_table
+from tests.conftest import REPO
+
+
+def solution_of(path: Path, two_step: bool = False) -> tuple[str, Solution, tuple[str, ...]]:
+    result = api.solve(path, two_step=two_step)
+    assert isinstance(result.solution, Solution)
+    return result.status, result.solution, tuple(d.code for d in result.diagnostics)
+
+
+def dof(solution: Solution, name: str) -> float:
+    names = [variable.name for variable in solution.model.variables]
+    return float(solution.x[names.index(name)])
+
+
+def test_the_demo_places_the_s_hook_where_the_ring_hangs_at_the_request() -> None:
+    """Demo: a wire hanger on a rod, an S-hook on its bar, a curtain ring on the
+    S-hook. The hanger is symmetric about its hook: with the S-hook at the
+    middle of its bar (t = 0.5, 195 mm of 390) its bar hangs level and the ring
+    hangs straight below the hanger's hook, at the request (0, 2.1, 142): the
+    issue measured 2.3 mm there. Step 1 left the S-hook at 86 % of the bar, and
+    the hanger, tilting under it, put the ring 117 mm away (--two-step keeps
+    that). Aimed: within the issue's 15 mm, the S-hook within 3 % of the middle,
+    and N506 says where to place it."""
+    status, aimed, codes = solution_of(REPO / "programs" / "demo.fhl")
+    assert status == "solved" and "N506" in codes
+    assert aimed.target_errors()[0] < 15.0
+    assert dof(aimed, "hanger.rod.t") == pytest.approx(0.5, abs=0.03)
+    status, paper, codes = solution_of(REPO / "programs" / "demo.fhl", two_step=True)
+    assert status == "solved" and "N506" not in codes
+    assert paper.target_errors()[0] > 100.0
+
+
+def test_the_clip_light_is_aimed_as_near_as_its_own_balance_allows() -> None:
+    """Clip light M: the light (200 g) grips the hanger's bar with a `fixed`
+    clip; the clip's place on the bar and its grip angles are chosen. Aimed, it
+    hangs nearer than step 1's choices left it (32.3 mm, 7.8 degrees).
+
+    Why not within 10 mm and 5 degrees (the issue's hope): held at the
+    requested frame, the clip has the light's centre of mass 39 mm to one side
+    of it (measured below). Everything hangs from one ceiling hook, so the
+    hanger (83 g) would have to hold its own centre of mass 39 x 200 / 83 =
+    94 mm to the other side of the line below the hook, tilting its bar, and
+    the clip with it, by tens of degrees: a tilt within 5 degrees moves the
+    hanger's centre of mass (about 100 mm below its hook) by at most
+    100 sin 5 = 9 mm, the light by 9 x 83 / 200 = 4 mm of the 39. The aimed
+    answer balances the two errors: under 28 mm and 5 degrees."""
+    status, aimed, codes = solution_of(REPO / "programs" / "clip_light_m.fhl")
+    assert status == "solved" and "N506" in codes
+    position, rotation = aimed.target_errors()
+    assert position < 28.0 and rotation < 5.0
+    model = aimed.model
+    light = model.part_index("light")
+    masses, centres = _mass_table(model)
+    assert masses[light] == pytest.approx(200.0)
+    achieved = aimed.target_frame()
+    relative = np.linalg.inv(achieved) @ aimed.frames[light]
+    at_request = aimed.goal.requested @ relative
+    centre = at_request[:3, :3] @ centres[light] + at_request[:3, 3]
+    sideways = np.linalg.norm(centre[:2] - aimed.goal.requested[:2, 3])
+    assert sideways == pytest.approx(39.0, abs=2.0)
+
+
+def test_aiming_keeps_an_answer_it_cannot_better(tmp_path: Path) -> None:
+    """The mug hanger's only choice is where the top S-hook sits on the rod,
+    and the mug already hangs 0.3 mm from its request: aiming finds nothing
+    nearer (its answer ranks no better), so the result is the two steps' own,
+    to the settle's precision, and no N506."""
+    _, aimed, codes = solution_of(REPO / "programs" / "mug_hanger.fhl")
+    _, paper, _ = solution_of(REPO / "programs" / "mug_hanger.fhl", two_step=True)
+    assert "N506" not in codes
+    assert np.abs(aimed.x - paper.x).max() < 1e-9
+
+
+def test_the_aimed_demo_is_the_same_in_any_order_of_lines(tmp_path: Path) -> None:
+    """The demo's connections written in reverse: the same aimed answer (the
+    model orders connections canonically; 0.01 mm is far below the 117 mm the
+    aim gains)."""
+    text = (REPO / "programs" / "demo.fhl").read_text()
+    lines = text.splitlines()
+    connects = [line for line in lines if line.startswith("connect ")]
+    start = lines.index(connects[0])
+    reordered = [*lines[:start], *reversed(connects), *lines[start + len(connects) :]]
+    (tmp_path / "demo.fhl").write_text("\n".join(reordered) + "\n")
+    _, forwards, _ = solution_of(REPO / "programs" / "demo.fhl")
+    _, backwards, _ = solution_of(tmp_path / "demo.fhl")
+    assert np.linalg.norm(forwards.target_frame()[:3, 3] - backwards.target_frame()[:3, 3]) < 0.01
