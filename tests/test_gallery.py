@@ -47,11 +47,8 @@ def test_the_gallery_has_every_program_of_the_paper() -> None:
     assert set(PROGRAMS) == expected
 
 
-# the reading nook's taped links sit where the canopy swings up; settled from there one
-# link's hook rests against the model's limit of its lean with 2 % of the weight, which
-# nothing real holds (E509, not_at_rest); choosing the taped points with gravity in view
-# is issue 15, whose first acceptance item is this program hanging at rest
-NOT_YET_AT_REST = {"reading_nook": "E509: a taped link's hook leans on its model limit (issue 15)"}
+# programs known not to hang at rest yet, with the reason (strict: one that does, fails)
+NOT_YET_AT_REST: dict[str, str] = {}
 
 
 @pytest.mark.parametrize(

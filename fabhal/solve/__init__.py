@@ -370,8 +370,10 @@ def _aimed(
     saying what was chosen; else the result as it was."""
     model = step1.model
     chosen = aim_mod.choices(step1)
-    # a result that falls apart or leans on a stop is not aimed from: its "at rest" residuals mislead
-    if not len(chosen) or settled.falls or not np.all(np.isfinite(settled.x)):
+    # a result that falls apart is not aimed from (one that leans on a stop is: aiming may
+    # find the settings where nothing leans)
+    falls = any(not isinstance(fall, Lean) for fall in settled.falls)
+    if not len(chosen) or falls or not np.all(np.isfinite(settled.x)):
         return settled, []
     options.report("step 3: aiming the settings that stay put, for where the hack hangs")
     weight = _weight(masses)
@@ -428,7 +430,7 @@ def _choice_text(model: Model, i: int, value: float, length: float) -> str:
     """A chosen DoF's value as a builder sets it: along a primitive in mm, an angle in degrees."""
     variable = model.variables[i]
     if variable.dof.periodic or variable.dof.high > 1.0:
-        return f"{variable.dof.name} {value:.0f} degrees"
+        return f"{variable.name} {value:.0f} degrees"
     return f"{value * length:.0f} mm along {variable.name.rsplit('.', 1)[0]} (of {length:.0f})"
 
 

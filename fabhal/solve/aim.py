@@ -73,18 +73,22 @@ def aim(
     free, per_mm = problem.free, problem.scale
     moving = np.setdiff1d(np.arange(len(free)), chosen)
     low, high = (bound[free] for bound in model.bounds())
+    leans = np.array([model.variables[int(free[k])].dof.lean for k in moving], dtype=bool)
 
     def unbalanced(v: Array) -> Array:
         """(moving,) the generalised force on each DoF gravity moves, over the
         weight per mm; along a loop, less what the loop's constraint carries; on
-        an end of its range, only what pushes it back inside."""
+        an end of its range, only what pushes it back inside (but all of it on a
+        lean's end: E509)."""
         force = energy(problem.full(v))[1][free][moving] / per_mm[moving] / weight
         if model.closures:
             constraint = (problem.closure_jacobian(v) / per_mm)[:, moving]
             multipliers = np.linalg.lstsq(constraint.T, -force, rcond=None)[0]
             force = force + constraint.T @ multipliers
-        at_low, at_high = v[moving] <= low[moving], v[moving] >= high[moving]
-        force[at_low & (force > 0)] = 0.0  # pressed onto an end: the end carries it
+        # pressed onto an end, the end carries it; not a lean's (nothing real holds it there)
+        at_low = (v[moving] <= low[moving]) & ~leans
+        at_high = (v[moving] >= high[moving]) & ~leans
+        force[at_low & (force > 0)] = 0.0
         force[at_high & (force < 0)] = 0.0
         return force
 

@@ -22,7 +22,7 @@ TIMING = re.compile(r'"timing": \{[^}]*\}')
 )
 def test_json_output_is_byte_identical_across_processes(program: str) -> None:
     first, second = (fabhal("solve", "--json", "--seed", "3", program) for _ in range(2))
-    # 0 solved, 1 not (the reading nook is not at rest yet): the same either way
+    # 0 solved, 1 not (another seed may not find a resting place): the same either way
     assert first.returncode == second.returncode and first.returncode in (0, 1), first.stderr
     assert TIMING.search(first.stdout)
     assert TIMING.sub("", first.stdout) == TIMING.sub("", second.stdout)
