@@ -19,7 +19,7 @@ import numpy as np
 
 from fabhal.kinematics.frames import Array
 from fabhal.render.raster import rasterize
-from fabhal.render.scene import CONTACT_COLOR
+from fabhal.render.scene import CONTACT_COLOR, HELD_COLOR, OVERLAY_ROLES
 
 if TYPE_CHECKING:
     from PIL import ImageDraw
@@ -100,8 +100,8 @@ def _view(scene: Scene, focus: Array, view: str, width: int, height: int) -> Any
 
     camera = camera_for(view, focus, width, height)
     # contacts lie where two bodies meet, hidden by one of them: drawn over everything
-    overlays = [item for item in scene.items if item.role == "contact"]
-    solid = [item for item in scene.items if item.opacity >= 1.0 and item.role != "contact"]
+    overlays = [item for item in scene.items if item.role in OVERLAY_ROLES]
+    solid = [item for item in scene.items if item.opacity >= 1.0 and item.role not in OVERLAY_ROLES]
     ghosts = [item for item in scene.items if item.opacity < 1.0]
     image, owner = _shade(solid, camera, width, height)
     for ghost in ghosts:  # see-through: blended over everything, wherever it projects
@@ -236,6 +236,9 @@ def _header(draw: ImageDraw.ImageDraw, scene: Scene, summary: dict[str, Any], wi
     if any(item.role == "contact" for item in scene.items):
         red, green, blue = (round(255 * c) for c in CONTACT_COLOR)
         legend.append(("contact, force on the part", (red, green, blue)))
+    if any(item.role == "held" for item in scene.items):
+        red, green, blue = (round(255 * c) for c in HELD_COLOR)
+        legend.append(("held (set when building)", (red, green, blue)))
     legend.append(("requested target axes: x y z", None))
     font = _font(14)
     widths = [int(draw.textlength(text, font=font)) + (18 if color else 0) + 18 for text, color in legend]

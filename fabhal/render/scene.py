@@ -23,6 +23,10 @@ ENVIRONMENT_COLOR = (0.62, 0.63, 0.66)
 TARGET_COLOR = (0.96, 0.55, 0.12)
 FAILURE_COLOR = (0.86, 0.1, 0.1)
 CONTACT_COLOR = (0.8, 0.15, 0.7)  # magenta: no part takes it
+# near black, unlike any part: a setting the builder makes (a clip's grip, a `fixed` connection)
+HELD_COLOR = (0.12, 0.12, 0.12)
+# drawn over everything, like the contacts: where two bodies meet, one hides the other
+OVERLAY_ROLES = ("contact", "held")
 # parts that are neither: distinct, calm hues (Tableau-like), cycled
 PART_COLORS = (
     (0.27, 0.51, 0.71),
@@ -36,6 +40,7 @@ PART_COLORS = (
 GHOST_OPACITY = 0.35
 FAILURE_MARK_MM = 8.0  # radius of the sphere marking a connection that comes apart
 CONTACT_MARK_MM = 5.0  # radius of the dot where a part rests on the environment
+HELD_MARK_MM = 9.0  # edge of the cube at a held connection
 # the arrow of a contact's force: this long per newton (the gallery's 1-10 N contacts
 # draw 10-100 mm, the size of the parts), within these lengths
 CONTACT_ARROW_MM_PER_N = 10.0
@@ -53,7 +58,7 @@ class RenderOptions:
 @dataclass(frozen=True)
 class SceneItem:
     name: str  # the program's part name, `part.primitive`, or a marker's description
-    role: str  # environment, target, part, primitive, requested, failure, contact
+    role: str  # environment, target, part, primitive, requested, failure, contact, held
     vertices: Array  # (n, 3) in the item's own frame
     faces: np.ndarray  # (m, 3)
     transform: Array  # (4, 4) item frame -> world
@@ -90,6 +95,7 @@ def build_scene(solution: Solution, title: str, options: RenderOptions) -> Scene
                 name = f"{part.name}.{primitive.name}"
                 items.append(_item(name, "primitive", shape, solution.frames[i], (0.95, 0.85, 0.2)))
     items.extend(_contact_marker(solution, contact) for contact in solution.contacts)
+    items.extend(_held_marker(solution, joint.index) for joint in model.joints if joint.held)
     if options.show_requested:
         requested_part = solution.goal.requested @ invert(solution.goal.local())
         ghost = part_mesh(model.parts[target_part].spec)
@@ -171,6 +177,18 @@ def _along(direction: Array, origin: Array) -> Array:
     frame = np.eye(4)
     frame[:3, 0], frame[:3, 1], frame[:3, 2], frame[:3, 3] = x, np.cross(direction, x), direction, origin
     return frame
+
+
+def _held_marker(solution: Solution, joint_index: int) -> SceneItem:
+    """A cube where a held connection (a clip, a `fixed` connection) grips:
+    the settings a builder makes once, which the solver chose (N506)."""
+    import trimesh
+
+    joint = solution.model.joints[joint_index]
+    where = solution.model.connector_frame(joint.a, solution.x, solution.frames)
+    cube = trimesh.creation.box(extents=(HELD_MARK_MM,) * 3)
+    name = f"held: {joint.connection.a} -- {joint.connection.b}"
+    return _item(name, "held", cube, where, HELD_COLOR)
 
 
 def _failure_marker(solution: Solution, joint_index: int, part: str) -> SceneItem:

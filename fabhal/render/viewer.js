@@ -179,8 +179,9 @@
     gl.uniform3fv(where.light, normalize(toCamera.map((v, k) => v + [0.2, 0.2, 0.5][k])));
     gl.uniform1i(where.picking, picking ? 1 : 0);
     // contacts lie where two bodies meet, hidden by one of them: drawn over everything
-    const overlays = meshes.filter((m) => m.item.role === "contact");
-    const solid = meshes.filter((m) => m.item.opacity >= 1 && m.item.role !== "contact");
+    const overlay = (m) => m.item.role === "contact" || m.item.role === "held";
+    const overlays = meshes.filter(overlay);
+    const solid = meshes.filter((m) => m.item.opacity >= 1 && !overlay(m));
     const ghosts = meshes.filter((m) => m.item.opacity < 1);
     gl.disable(gl.BLEND);
     for (const mesh of solid) drawMesh(mesh, picking);

@@ -122,6 +122,39 @@ def test_contacts_are_drawn_where_parts_rest_on_the_environment(tmp_path: Path) 
     assert marker.name in set(trimesh.load(str(glb)).graph.nodes_geometry)
 
 
+def test_held_connections_are_marked_where_they_grip(tmp_path: Path) -> None:
+    """Clip light M: the light's clip grips the hanger's bar (a held connection,
+    its settings chosen by aiming, N506). The scene has one held marker, a
+    cube centred on that connection's point, named after the connection; the
+    picture shows it: near-black pixels around where that point projects."""
+    from PIL import Image
+
+    from fabhal.render.picture import camera_for
+    from fabhal.render.scene import HELD_COLOR, HELD_MARK_MM, build_scene
+
+    result = api.solve(REPO / "programs" / "clip_light_m.fhl")
+    solution = result.solution
+    scene = build_scene(solution, "clip", RenderOptions())
+    (marker,) = [item for item in scene.items if item.role == "held"]
+    assert marker.name == "held: light.clip -- hanger.rod"
+    (joint,) = [j for j in solution.model.joints if j.held]
+    where = solution.model.connector_frame(joint.a, solution.x, solution.frames)[:3, 3]
+    np.testing.assert_allclose(marker.world_vertices().mean(axis=0), where, atol=1e-6)
+    assert np.ptp(marker.vertices, axis=0) == pytest.approx([HELD_MARK_MM] * 3)
+
+    path = tmp_path / "clip.png"
+    render(solution, "clip", path, RenderOptions(size=(900, 600)), to_dict(result, "clip"))
+    pixels = np.asarray(Image.open(io.BytesIO(path.read_bytes())).convert("RGB")).astype(int)[HEADER:]
+    dark = np.abs(pixels - np.array(HELD_COLOR) * 255).sum(axis=2) < 60
+    focus = np.concatenate([item.world_vertices() for item in scene.items if item.role != "environment"])
+    x, y = camera_for("iso", np.vstack([focus, scene.requested[None, :3, 3]]), 900, 600).project(where[None])[
+        0, :2
+    ]
+    rows, cols = np.nonzero(dark)
+    near = np.hypot(cols - x, rows - y) < 4.0  # pixels: the cube's face around its centre
+    assert near.sum() > 10
+
+
 # ---------------------------------------------------------------- the browser viewer
 
 CHROMIUM_FLAGS = [
