@@ -380,8 +380,9 @@ def _aimed(
     world = pairs.against({i for i, part in enumerate(model.parts) if part.environment})
     energy = with_contacts(model, potential(model, masses, centres), world, weight)
     start = step1.full(aim_mod.aim(step1, settled.x, energy, goal, weight, chosen))
-    if not np.all(np.isfinite(start)) or step1.out_of_time():
-        return settled, []
+    moved = np.abs((start - settled.x)[step1.free] * step1.scale).max(initial=0.0)
+    if not np.all(np.isfinite(start)) or moved < CHOICE_TOLD_MM or step1.out_of_time():
+        return settled, []  # nothing worth settling again
     aimed = _settle(step1, start, masses, centres, goal, world)
     ranks = [_rank(goal, model.part_frames(s.x), s) for s in (aimed, settled)]
     inside = any(c.depth > OVERLAP_KEPT_MM for c in contacts_at(model, aimed.x, pairs, weight))

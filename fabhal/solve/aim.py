@@ -47,6 +47,10 @@ FORCE_AS_MM = (100.0, 1000.0)
 AIM_EVALUATIONS = 30  # per stage
 DIFFERENCE_MM = 1e-4  # the forward-difference step, in mm of motion
 BROYDEN_STEPS = 8  # secant updates of the force's derivative before it is differenced afresh
+# a stage ends when its last AIM_STALL_STEPS steps brought the residual less than AIM_GAIN_MM
+# nearer: aiming that cannot gain (the mug hanger's rotation is out of reach) stops early
+AIM_STALL_STEPS = 4
+AIM_GAIN_MM = 0.5
 
 
 def choices(problem: Problem) -> Index:
@@ -132,5 +136,13 @@ def aim(
         if problem.out_of_time():
             break
         objective = least_squares_objective(with_jacobian(force_as_mm))
-        v = problem.minimize(objective, v, max_evaluations=AIM_EVALUATIONS, ftol=1e-10).x
+        v = problem.minimize(objective, v, max_evaluations=AIM_EVALUATIONS, ftol=1e-10, stalled=_stalled).x
     return v
+
+
+def _stalled(costs: list[float]) -> bool:
+    """The residual (costs are |r|^2 / 2) came less than AIM_GAIN_MM nearer in AIM_STALL_STEPS steps."""
+    if len(costs) <= AIM_STALL_STEPS:
+        return False
+    before, now = (np.sqrt(2.0 * max(c, 0.0)) for c in (costs[-1 - AIM_STALL_STEPS], costs[-1]))
+    return bool(before - now < AIM_GAIN_MM)

@@ -163,11 +163,12 @@ def test_a_design_that_falls_from_every_start_falls_apart(monkeypatch) -> None: 
 
 def _slide_on_closed_rod(tmp_path: Path, tilt: float) -> tuple[float, float, bool]:
     """On a 300 mm closed rod sloping `tilt` degrees: where step 1 puts the hook (t),
-    where it ends after settling, and whether that is an end of the rod."""
+    where it ends after settling, and whether that is an end of the rod. The
+    paper's two steps (aiming would place the hook elsewhere first)."""
     program = tmp_path / "slope.fhl"
     program.write_text(S_HOOK_ON_ROD.format(length=300, extra=", slide_off: false", roll=90 + tilt))
     fitted = api.solve(program, gravity=False).solution
-    settled = api.solve(program).solution
+    settled = api.solve(program, two_step=True).solution
     assert fitted is not None and settled is not None
     t = next(i for i, v in enumerate(settled.model.variables) if v.name == "rod.rod.t")
     return float(fitted.x[t]), float(settled.x[t]), t in settled.at_bound
@@ -217,11 +218,12 @@ def test_friction_on_an_open_rod_holds_up_to_the_friction_angle(
     atan 0.3 = 16.70 degrees. At 16.5 (tan = 0.296, r = tan/mu = 0.987) the
     friction, smoothed over 0.5 mm, lets it creep 0.5 r / sqrt(1 - r^2) = 3.1 mm;
     at 16.9 (tan = 0.304) nothing stops it before the open end: it falls off.
-    Tolerance 5 mm on the creep: ~2 mm above the smoothed-friction value."""
+    Tolerance 5 mm on the creep: ~2 mm above the smoothed-friction value. The
+    paper's two steps: the creep is measured from step 1's placement."""
     program = tmp_path / "tilted.fhl"
     program.write_text(S_HOOK_ON_ROD.format(length=500, extra="", roll=90 + tilt))
     fitted = api.solve(program, gravity=False).solution
-    result = api.solve(program)
+    result = api.solve(program, two_step=True)
     assert fitted is not None and result.solution is not None
     if holds:
         assert result.status == "solved"
