@@ -61,6 +61,8 @@ class Connection:
     fixed: bool
     span: Span
     fixed_span: Span | None = None
+    # the alignment is the program's (`flip` or `noflip` written): the solver may not turn it over
+    aligned: bool = False
 
 
 @dataclass(frozen=True)
@@ -181,7 +183,12 @@ class _Elaborator:
         elif isinstance(statement, ast.ConnectStmt):
             a, b = self._endpoints(statement.a, statement.b, scope)
             fixed = next((o.span for o in statement.options if o.name == "fixed"), None)
-            self.connections.append(Connection(a, b, statement.flip, statement.fixed, statement.span, fixed))
+            if statement.flip and statement.noflip:
+                raise FabhalError([_both_alignments(statement)])
+            aligned = statement.flip or statement.noflip
+            self.connections.append(
+                Connection(a, b, statement.flip, statement.fixed, statement.span, fixed, aligned)
+            )
         elif isinstance(statement, ast.TargetStmt):
             self._forbid_in_assembly(statement, scope, "a target")
             self._target(statement, scope)
@@ -540,6 +547,17 @@ class _Elaborator:
 
 
 # ---------------------------------------------------------------- helpers
+
+
+def _both_alignments(statement: ast.ConnectStmt) -> Diagnostic:
+    second = next(o for o in reversed(statement.options) if o.name in ("flip", "noflip"))
+    return error(
+        "E314",
+        "`flip` and `noflip` on one connection",
+        second.span,
+        "`flip` turns the connection over, `noflip` keeps the default way round: write one of them, "
+        "or neither to let the solver choose",
+    )
 
 
 def _duplicate(key: str, span: Span, first: Span) -> Diagnostic:

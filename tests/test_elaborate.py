@@ -127,6 +127,7 @@ MISTAKES = {
     "primitive_of_alias": "s1 = DoubleHook()\ntop = s1.hook1\ns2 = DoubleHook()\n"
     "connect s2.hook2 -- top.hook1\n",
     "several_name_errors": "s1 = DoubleHook()\nconnect s1.hook9 -- s2.hook1\nm = Mugg()\n",
+    "both_alignments": "s1 = DoubleHook()\ns2 = DoubleHook()\nconnect s2.hook2 -- s1.hook1 flip noflip\n",
 }
 
 

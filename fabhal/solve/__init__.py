@@ -16,6 +16,7 @@ import numpy as np
 
 from fabhal.check.cycles import close_loops
 from fabhal.diagnostics import Diagnostic, Severity, error, warning
+from fabhal.elaborate import Connection
 from fabhal.kinematics.frames import Array
 from fabhal.kinematics.statics import Wrenches
 from fabhal.meshes import mass_properties
@@ -45,6 +46,7 @@ from fabhal.solve.steps import (
     with_friction,
     with_target_pull,
 )
+from fabhal.source import Span
 
 LOOP_KEPT_MM = 1e-3  # a result whose loops are open by more is never solved (E506)
 # a result with a part this deep in another is never solved (E508): five times the
@@ -181,6 +183,11 @@ def solve(model: Model, options: SolveOptions, loop_start: Array | None = None) 
     first = _solve_once(model, options, loop_start)
     if not first.falls or not options.gravity:
         return first
+    leans_only = all(isinstance(fall, Lean) for fall in first.falls)
+    if leans_only:  # a builder turns such a connection over before hanging it again
+        turned = _aligned(model, options, first)
+        if turned is not None:
+            return turned
     held: list[tuple[int, Solution]] = []
     for k in range(1, FALL_RETRIES + 1):
         if time.monotonic() > options.deadline:
@@ -202,7 +209,7 @@ def solve(model: Model, options: SolveOptions, loop_start: Array | None = None) 
             "the result is that configuration; set up by hand, mind how this connection is turned",
         )
         return replace(best, diagnostics=(note, *best.diagnostics))
-    if all(isinstance(fall, Lean) for fall in first.falls) and time.monotonic() < options.deadline:
+    if leans_only:
         return _with_flip_advice(model, options, first)
     return first
 
@@ -213,39 +220,75 @@ def _what_failed(fall: Fall | Topple | Lean) -> str:
     return "hung on a lean's limit" if isinstance(fall, Lean) else "slid off"
 
 
+def _leaning_connections(model: Model, result: Solution, aligned: bool) -> list[Connection]:
+    """The connections whose lean holds the result (E509), each once: those whose
+    alignment the program wrote (`aligned`) or those it leaves open."""
+    joints = dict.fromkeys(fall.joint for fall in result.falls)
+    return [model.joints[j].connection for j in joints if model.joints[j].connection.aligned == aligned]
+
+
+def _solved_turned(model: Model, options: SolveOptions, connection: Connection) -> Solution | None:
+    """The design with `connection` turned over (`flip` toggled), if it solves; None otherwise."""
+    if time.monotonic() > options.deadline:
+        return None
+    options.report(f"held only by a lean's limit; trying {connection.a} -- {connection.b} turned over")
+    turned = replace(connection, flip=not connection.flip)
+    program = replace(
+        model.program,
+        connections=tuple(turned if c is connection else c for c in model.program.connections),
+    )
+    other = _solve_once(build_model(program), options, None)
+    return other if other.status == "solved" else None
+
+
+def _aligned(model: Model, options: SolveOptions, result: Solution) -> Solution | None:
+    """A hack held only by a lean's limit (E509), where the program leaves the
+    alignment of such a connection open (neither `flip` nor `noflip`): the
+    solver chooses it. The first of them that hangs at rest turned over gives
+    the result, with N507 saying so; None if none does."""
+    for connection in _leaning_connections(model, result, aligned=False):
+        turned = _solved_turned(model, options, connection)
+        if turned is not None:
+            return replace(turned, diagnostics=(_aligned_note(connection, turned), *turned.diagnostics))
+    return None
+
+
 def _with_flip_advice(model: Model, options: SolveOptions, result: Solution) -> Solution:
-    """A hack held only by a lean's limit (E509): whether turning one of those
-    connections the other way (`flip`, or without it) hangs it at rest, solved
-    again that way; if one does, its E509 says so, with how near the request it
-    would hang. The result stays the program's own."""
-    advice: dict[int, str] = {}
-    for joint in dict.fromkeys(fall.joint for fall in result.falls):
-        if time.monotonic() > options.deadline:
-            break
-        connection = model.joints[joint].connection
-        options.report(f"held only by a lean's limit; trying {connection.a} -- {connection.b} turned over")
-        turned = replace(connection, flip=not connection.flip)
-        program = replace(
-            model.program,
-            connections=tuple(turned if c is connection else c for c in model.program.connections),
-        )
-        other = _solve_once(build_model(program), options, None)
-        if other.status == "solved":
-            position, rotation = other.target_errors()
+    """A hack held only by a lean's limit (E509) on a connection whose alignment
+    the program wrote (`flip` or `noflip`): the result stays the program's own,
+    and if that connection turned the other way hangs at rest, its E509 says
+    so, with how near the request it would hang."""
+    advice: dict[Span, str] = {}
+    for connection in _leaning_connections(model, result, aligned=True):
+        turned = _solved_turned(model, options, connection)
+        if turned is not None:
+            position, rotation = turned.target_errors()
             written = "without `flip`" if connection.flip else "with `flip`"
-            advice[joint] = (
+            advice[connection.span] = (
                 f"this connection written {written} hangs the hack at rest, {position:.0f} mm and "
                 f"{rotation:.0f} degrees from the request"
             )
             break
-    if not advice:
-        return result
-    by_line = {model.joints[joint].connection.span: text for joint, text in advice.items()}
     diagnostics = tuple(
-        replace(d, help=by_line[d.span]) if d.code == "E509" and d.span in by_line else d
+        replace(d, help=advice[d.span]) if d.code == "E509" and d.span in advice else d
         for d in result.diagnostics
     )
     return replace(result, diagnostics=diagnostics)
+
+
+def _aligned_note(connection: Connection, turned: Solution) -> Diagnostic:
+    """N507: the solver turned a connection whose alignment the program left open."""
+    position, rotation = turned.target_errors()
+    return Diagnostic(
+        Severity.NOTE,
+        "N507",
+        f"aligned: `{connection.a} -- {connection.b}` turned over (as `flip` writes it): so the hack "
+        f"hangs at rest, {position:.0f} mm and {rotation:.0f} degrees from the request; the default way "
+        "round rests only on a lean's stop (E509)",
+        connection.span,
+        "build it turned over; write `flip` to say so, or `noflip` to keep the default way round and see "
+        "why it does not hang",
+    )
 
 
 def _solve_once(model: Model, options: SolveOptions, loop_start: Array | None) -> Solution:

@@ -179,7 +179,7 @@ class AliasDecl:
 
 @dataclass(frozen=True)
 class ConnectOption:
-    name: str  # "flip" or "fixed"
+    name: str  # "flip", "noflip" or "fixed"
     span: Span
 
 
@@ -193,6 +193,10 @@ class ConnectStmt:
     @property
     def flip(self) -> bool:
         return any(o.name == "flip" for o in self.options)
+
+    @property
+    def noflip(self) -> bool:
+        return any(o.name == "noflip" for o in self.options)
 
     @property
     def fixed(self) -> bool:

@@ -25,7 +25,7 @@ STATEMENT_KEYWORDS = (
     "import", "param", "environment", "connect", "target", "for", "part", "assembly", "port",
 )  # fmt: skip
 PART_KEYWORDS = ("mesh", "mass", "material")
-CONNECT_OPTIONS = ("flip", "fixed")
+CONNECT_OPTIONS = ("flip", "noflip", "fixed")
 
 _WORDS = {
     "NAME": "a name",
@@ -254,7 +254,9 @@ def _connect_option(ctx: ErrorContext) -> Diagnostic | None:
     if not {"FLIP", "FIXED"} <= ctx.expected or ctx.token.type != "NAME":
         return None
     suggestion = did_you_mean(str(ctx.token.value), CONNECT_OPTIONS)
-    help_text = f"did you mean `{suggestion}`?" if suggestion else "the options are `flip` and `fixed`"
+    help_text = (
+        f"did you mean `{suggestion}`?" if suggestion else "the options are `flip`, `noflip` and `fixed`"
+    )
     return error("E112", f"unknown connection option `{ctx.token.value}`", ctx.span, help_text)
 
 

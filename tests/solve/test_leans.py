@@ -6,21 +6,24 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import pytest
+
 from fabhal import api
 from fabhal.solve import Lean, SolveOptions, _solve_once, _with_flip_advice
 from tests.conftest import REPO
 from tests.solve.test_physics import solve_text
 
 
-def no_flip_program(tmp_path: Path) -> Path:
+def no_flip_program(tmp_path: Path, written: str = "noflip") -> Path:
     """The gallery's soap bottle holder with the second eye hook's ring hung on
-    the door rod without `flip` (its hook then opens the other way)."""
+    the door rod the default way round (its hook then opens the other way):
+    `written` after the connection (`noflip` pins that; "" leaves it open)."""
     text = (REPO / "programs" / "soap_bottle_holder.fhl").read_text()
     text = text.replace('import "lib/', f'import "{REPO}/programs/lib/')
     flipped = "connect hanger.ring2 -- door flip"
     assert flipped in text
     path = tmp_path / "no_flip.fhl"
-    path.write_text(text.replace(flipped, "connect hanger.ring2 -- door"))
+    path.write_text(text.replace(flipped, f"connect hanger.ring2 -- door {written}".rstrip()))
     return path
 
 
@@ -32,7 +35,9 @@ def test_a_basket_held_by_a_leans_limit_is_not_at_rest(tmp_path: Path) -> None:
     real holds that (the gallery's leans carry at most 0.09 %; every gallery
     hack is `solved`, tests/test_gallery.py). Not at rest, E509 at that
     connection. Turned over (`flip`), the design is the gallery's,
-    which hangs 2.2 mm from the request: the advice says so (within 10 mm)."""
+    which hangs 1.5 mm from the request: the program pins the default way
+    round (`noflip`), so the result stays its own and the advice says so
+    (within 10 mm)."""
     checked = api.check(no_flip_program(tmp_path))
     assert checked.model is not None
     options = SolveOptions(seed=0)
@@ -43,13 +48,34 @@ def test_a_basket_held_by_a_leans_limit_is_not_at_rest(tmp_path: Path) -> None:
     e509 = [d for d in first.diagnostics if d.code == "E509"]
     source = no_flip_program(tmp_path).read_text().splitlines()
     lines = [d.span.line for d in e509 if d.span is not None]
-    assert [source[line - 1] for line in lines] == ["connect hanger.ring2 -- door"]
+    assert [source[line - 1] for line in lines] == ["connect hanger.ring2 -- door noflip"]
     advised = _with_flip_advice(checked.model, options, first)
     (advice,) = [d.help for d in advised.diagnostics if d.code == "E509"]
     assert advice is not None and advice.startswith(
         "this connection written with `flip` hangs the hack at rest"
     )
     assert float(advice.split("at rest, ")[1].split(" mm")[0]) < 10.0
+
+
+def test_an_alignment_the_program_leaves_open_is_chosen(tmp_path: Path) -> None:
+    """The same connection written with neither `flip` nor `noflip`: the
+    program leaves its alignment open, so the solver turns it over, as a
+    builder whose basket hangs askew would: the result is the gallery's
+    design (1.5 mm and 0 degrees from the request, within its 10 mm), solved,
+    and N507 names the connection's line. Written with `flip`, the same
+    answer without the note (the gallery's soap holder)."""
+    path = no_flip_program(tmp_path, written="")
+    result = api.solve(path)
+    assert result.status == "solved"
+    (note,) = [d for d in result.diagnostics if d.code == "N507"]
+    assert note.span is not None
+    assert path.read_text().splitlines()[note.span.line - 1] == "connect hanger.ring2 -- door"
+    assert "turned over" in note.message
+    position, rotation = result.solution.target_errors()
+    gallery = api.solve(REPO / "programs" / "soap_bottle_holder.fhl")
+    assert "N507" not in [d.code for d in gallery.diagnostics]
+    assert position < 10.0 and rotation < 5.0
+    assert position == pytest.approx(gallery.solution.target_errors()[0], abs=0.5)
 
 
 TOTE = """\

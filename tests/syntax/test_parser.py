@@ -145,3 +145,13 @@ def test_parser_tables_are_cached_in_the_user_cache_dir(tmp_path: Path) -> None:
     assert len(cached) == 1
     package_dir = Path(resources.grammar_path()).parent.parent / "fabhal"
     assert not list(package_dir.rglob("*.lark-cache"))
+
+
+def test_noflip_pins_the_default_alignment() -> None:
+    """`noflip` is a connection option like `flip` (a keyword: `noflipped` stays a name)."""
+    (connect,) = parse_text("connect s1.hook2 -- rod noflip fixed\n").statements
+    assert isinstance(connect, ast.ConnectStmt)
+    assert connect.noflip and connect.fixed and not connect.flip
+    assert connect.options[0].span == Span("<string>", 1, 25, 1, 31)
+    (alias,) = parse_text("attach = noflipped.hook\n").statements
+    assert isinstance(alias, ast.AliasDecl) and alias.ref.base.name == "noflipped"

@@ -30,7 +30,7 @@ for i in 1 .. n {
 # fragments users type, to splice into valid programs
 TOKENS = [
     "connect", "--", "-", "=", "(", ")", "[", "]", "{", "}", ".", "..", ",", ":", "#", '"',
-    "at", "rot", "flip", "fixed", "part", "for", "in", "\n", " ", "s1", "0", "1.5", ";", "@",
+    "at", "rot", "flip", "noflip", "fixed", "part", "for", "in", "\n", " ", "s1", "0", "1.5", ";", "@",
 ]  # fmt: skip
 
 
