@@ -303,9 +303,19 @@ def contact_points(spec: PartSpec) -> Array:
     return _cached_array(spec, "points", _sample_points)  # type: ignore[return-value]
 
 
-def near_primitive(points: Array, primitive: Primitive, reach: float) -> NDArray[np.bool_]:
-    """(N,) whether each point (part frame, mm) lies within `reach` of the
-    primitive's shape (`primitive_mesh`), or inside it."""
+def near_primitive(spec: PartSpec, primitive: Primitive, reach: float) -> NDArray[np.bool_]:
+    """(N,) whether each of the part's contact points (`contact_points`) lies
+    within `reach` of the primitive's shape (`primitive_mesh`), or inside it.
+    Cached like the points (measured once per machine: sampling the shape
+    costs a solve 0.1-1 s, importing trimesh included)."""
+    import hashlib
+
+    which = hashlib.sha256(f"{primitive!r} {reach!r}".encode()).hexdigest()[:12]
+    near = _cached_array(spec, f"near-{which}", lambda s: _near(contact_points(s), primitive, reach))
+    return near  # type: ignore[return-value]
+
+
+def _near(points: Array, primitive: Primitive, reach: float) -> NDArray[np.bool_]:
     import trimesh
     from scipy.spatial import cKDTree
 

@@ -148,7 +148,7 @@ def contact_pairs(model: Model, report: Callable[[str], None] | None = None) -> 
             )
             key = (model.parts[part].type_name, *((own.name, _reach(other)) for own, other in touching))
             if key not in kept:
-                kept[key] = _away_from(points[part], touching)
+                kept[key] = _away_from(model.parts[part].spec, points[part], touching)
             spec = model.parts[obstacle].spec
             building = None if report is None else _telling(report, model.parts[obstacle].type_name)
             pairs.append(Pair(part, obstacle, kept[key], spec, boxes[obstacle], building))
@@ -162,11 +162,11 @@ def contact_pairs(model: Model, report: Callable[[str], None] | None = None) -> 
     )
 
 
-def _away_from(points: Array, touching: tuple[tuple[Primitive, Primitive], ...]) -> Array:
-    """The points farther from each own primitive's shape than the other's reach."""
+def _away_from(spec: PartSpec, points: Array, touching: tuple[tuple[Primitive, Primitive], ...]) -> Array:
+    """The part's points farther from each own primitive's shape than the other's reach."""
     keep = np.ones(len(points), dtype=bool)
     for own, other in touching:
-        keep &= ~near_primitive(points, own, _reach(other))
+        keep &= ~near_primitive(spec, own, _reach(other))
     return points[keep]
 
 
