@@ -471,11 +471,22 @@ def _choice_note(
 
 
 def _choice_text(model: Model, i: int, value: float, length: float) -> str:
-    """A chosen DoF's value as a builder sets it: along a primitive in mm, an angle in degrees."""
+    """A chosen DoF's value as a builder sets it: along a primitive in mm; a
+    tilt (a lean) from upright, a turn about a rod or round a ring, in degrees."""
     variable = model.variables[i]
-    if variable.dof.periodic or variable.dof.high > 1.0:
-        return f"{variable.name} {value:.0f} degrees"
-    return f"{value * length:.0f} mm along {variable.name.rsplit('.', 1)[0]} (of {length:.0f})"
+    dof = variable.dof
+    where = variable.name.rsplit(".", 1)[0]  # part.primitive
+    if not dof.periodic and dof.high <= 1.0:
+        return f"{value * length:.0f} mm along {where} (of {length:.0f})"
+    joint = model.joints[variable.joint]
+    kind = (joint.a if variable.side == "a" else joint.b).primitive.kind
+    if dof.lean:
+        return f"tilted {value - dof.default:+.0f} degrees on {where}"
+    if dof.name == "theta" and kind in ("hook", "hole"):  # where along its arc or round its ring
+        return f"at {value:.0f} degrees round {where}"
+    if dof.periodic:  # a rod's spin, a tube's theta, a surface's s
+        return f"turned {value:.0f} degrees about {where}"
+    return f"{dof.name} {value:.0f} degrees on {where}"
 
 
 @dataclass(frozen=True)
