@@ -80,6 +80,19 @@ def test_reading_nook_hoop_hangs_between_shelf_and_camera_mount() -> None:
     assert hoop[2] < 1283.0 - 100.0
 
 
+def test_reading_nook_is_aimed_and_says_so_briefly() -> None:
+    """The nook's two steps leave it leaning on a stop (E509 with --two-step);
+    aiming moves its taped links and shelf hooks, 13 settings, until it hangs
+    at rest. N506 names the 4 that moved most, says how many more (its help
+    lists them), and that with step 1's settings it would not hang at rest."""
+    result = solved("reading_nook")
+    (note,) = [d for d in result.diagnostics if d.code == "N506"]
+    assert "more (below)" in note.message and "does not hang at rest" in note.message
+    assert note.help is not None and note.help.startswith("also ")
+    named = int(note.message.split("; and ")[1].split(" more")[0])
+    assert named >= 1
+
+
 def test_bird_feeder_hangs_between_the_two_wall_hooks() -> None:
     result = solved("bird_feeder")
     left, right, feeder = (position(result, p) for p in ("left.e", "right.e", "feeder"))

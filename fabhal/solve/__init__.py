@@ -431,42 +431,59 @@ def _aimed(
     inside = any(c.depth > OVERLAP_KEPT_MM for c in contacts_at(model, aimed.x, pairs, weight))
     if ranks[0] >= ranks[1] or inside:
         return settled, []
-    return aimed, [_choice_note(step1, chosen, settled.x, aimed.x, goal)]
+    return aimed, [_choice_note(step1, chosen, settled, aimed.x, goal)]
 
 
 # a choice that moved its connection less than this (mm; degrees as mm) is not worth telling
 CHOICE_TOLD_MM = 1.0
+CHOICES_TOLD = 4  # settings named in N506's message (the rest in its help)
 
 
 def _choice_note(
-    step1: Problem, chosen: aim_mod.Index, before: Array, after: Array, goal: target_mod.TargetGoal
+    step1: Problem,
+    chosen: aim_mod.Index,
+    before: Settled,
+    after: Array,
+    goal: target_mod.TargetGoal,
 ) -> Diagnostic:
     """N506: which choices aiming changed, to what, and what that gained."""
     model = step1.model
     lengths = mm_per_unit(model)
     changed = [int(step1.free[k]) for k in chosen]
-    changed = [i for i in changed if abs(after[i] - before[i]) * lengths[i] > CHOICE_TOLD_MM]
+    moved = {i: abs(after[i] - before.x[i]) * lengths[i] for i in changed}
+    # the settings that moved most first; the note names CHOICES_TOLD of them, the help the rest
+    changed = sorted((i for i in changed if moved[i] > CHOICE_TOLD_MM), key=lambda i: -moved[i])
     position, rotation = target_mod.errors(goal, target_mod.achieved(goal, model.part_frames(after)))
-    was = target_mod.errors(goal, target_mod.achieved(goal, model.part_frames(before)))
-    by_connection: dict[int, list[str]] = {}
-    for i in changed:
-        by_connection.setdefault(model.variables[i].joint, []).append(
-            _choice_text(model, i, after[i], lengths[i])
-        )
-    told = "; ".join(
-        f"`{model.joints[j].connection.a} -- {model.joints[j].connection.b}` {', '.join(texts)}"
-        for j, texts in by_connection.items()
+    was = target_mod.errors(goal, target_mod.achieved(goal, model.part_frames(before.x)))
+    step1_left = (
+        f"where step 1 left them: {was[0]:.0f} mm, {was[1]:.0f} degrees"
+        if not before.falls and _at_rest(before)
+        else "where step 1 left them it does not hang at rest"
     )
+
+    def told(dofs: list[int]) -> str:
+        by_connection: dict[int, list[str]] = {}
+        for i in dofs:
+            by_connection.setdefault(model.variables[i].joint, []).append(
+                _choice_text(model, i, after[i], lengths[i])
+            )
+        return "; ".join(
+            f"`{model.joints[j].connection.a} -- {model.joints[j].connection.b}` {', '.join(texts)}"
+            for j, texts in by_connection.items()
+        )
+
+    named, rest = changed[:CHOICES_TOLD], changed[CHOICES_TOLD:]
+    more = f"; and {len(rest)} more (below)" if rest else ""
     span = model.joints[model.variables[changed[0]].joint].connection.span if changed else goal.source.span
     return Diagnostic(
         Severity.NOTE,
         "N506",
-        f"aimed: {told or 'choices kept'}; there the target hangs {position:.0f} mm and "
-        f"{rotation:.0f} degrees from the request (where step 1 left them: {was[0]:.0f} mm, "
-        f"{was[1]:.0f} degrees)",
+        f"aimed: {told(named) or 'choices kept'}{more}; there the target hangs {position:.0f} mm and "
+        f"{rotation:.0f} degrees from the request ({step1_left})",
         span,
-        "these are set when building and stay put (a clip's grip, a `fixed` connection, where friction "
-        "holds a part on a rod): build them so; --two-step keeps step 1's",
+        (f"also {told(rest)}; " if rest else "")
+        + "these are set when building and stay put (a clip's grip, a `fixed` connection, where "
+        "friction holds a part on a rod): build them so; --two-step keeps step 1's",
     )
 
 
