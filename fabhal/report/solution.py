@@ -12,6 +12,7 @@ from fabhal.kinematics.frames import matrix_euler
 from fabhal.model import Model
 from fabhal.primitives import Dof
 from fabhal.solve import Solution
+from fabhal.solve.aim import builder_settings
 
 if TYPE_CHECKING:
     from rich.console import RenderableType
@@ -85,20 +86,28 @@ def _solution(solution: Solution) -> dict[str, Any]:
     }
     connections = []
     resting = set(solution.at_bound)
+    settings = builder_settings(model)
     for joint in model.joints:
         dofs: dict[str, float] = {}
         at_bound: list[str] = []
+        set_once: list[str] = []
         for side, end in ((joint.a, joint.connection.a), (joint.b, joint.connection.b)):
             for i, dof in zip(side.dof_indices, side.primitive.dofs, strict=True):
                 name = f"{end}.{dof.name}"
                 dofs[name] = round(_within_range(dof, float(solution.x[i])), 6) + 0.0
                 if i in resting:
                     at_bound.append(name)
+                if i in settings:
+                    set_once.append(name)
         connection: dict[str, Any] = {
             "a": str(joint.connection.a),
             "b": str(joint.connection.b),
+            "flip": joint.connection.flip,
             "dofs": dofs,
             "at_bound": at_bound,
+            # the builder's settings (a clip's grip, a `fixed` connection, where friction
+            # holds a part): set when building, then they stay put (N506 when aimed)
+            "settings": set_once,
         }
         if solution.forces is not None:  # N, what a exerts on b (world axes), and its size
             connection["force_n"] = _numbers(solution.forces[joint.index])

@@ -34,6 +34,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from fabhal.kinematics.frames import Array
+from fabhal.model import Model
 from fabhal.optimize import least_squares_objective
 from fabhal.solve import target as target_mod
 from fabhal.solve.forces import friction_slides, slide_dofs
@@ -53,12 +54,16 @@ AIM_STALL_STEPS = 4
 AIM_GAIN_MM = 0.5
 
 
-def choices(problem: Problem) -> Index:
-    """Positions in `problem.free` of the DoFs a builder sets once: those of
-    held connections and the slides that friction holds."""
-    model = problem.model
+def builder_settings(model: Model) -> set[int]:
+    """The DoFs a builder sets once and that then stay put: those of held
+    connections (clips, `fixed`) and the slides that friction holds."""
     held = {i for joint in model.joints if joint.held for i in joint.a.dof_indices + joint.b.dof_indices}
-    chosen = held | set(slide_dofs(friction_slides(model)))
+    return held | set(slide_dofs(friction_slides(model)))
+
+
+def choices(problem: Problem) -> Index:
+    """Positions in `problem.free` of the builder's settings (`builder_settings`)."""
+    chosen = builder_settings(problem.model)
     return np.array([k for k, i in enumerate(problem.free) if int(i) in chosen], dtype=int)
 
 

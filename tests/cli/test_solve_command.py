@@ -174,3 +174,19 @@ def test_time_limit_must_be_a_positive_number_of_seconds() -> None:
         assert run.returncode == 2, value
         assert "expected a positive number of seconds" in run.stderr
         assert run.stdout == ""
+
+
+def test_json_names_the_builders_settings_and_the_way_round() -> None:
+    """--json: each connection lists which of its DoFs the builder sets once
+    ("settings": where friction holds the S-hook on the hanger's bar) and the
+    way round it was solved ("flip"). The demo's S-hook, aimed, sits at the
+    bar's middle (t = 0.5 within 3 %: tests/solve/test_aim.py's hand calc)."""
+    run = fabhal("solve", "--json", "programs/demo.fhl")
+    assert run.returncode == 0, run.stderr
+    data = json.loads(run.stdout)
+    by_ends = {(c["a"], c["b"]): c for c in data["connections"]}
+    bar = by_ends[("s.hook1", "hanger.rod")]
+    assert bar["settings"] == ["hanger.rod.t"] and bar["flip"] is False
+    assert abs(bar["dofs"]["hanger.rod.t"] - 0.5) < 0.03
+    assert by_ends[("ring.hook", "s.hook2")]["settings"] == []  # free to swing: nothing to set
+    assert "N506" in [d["code"] for d in data["diagnostics"]]
