@@ -29,6 +29,7 @@ settled result ranks first, so aiming never makes an answer worse.
 from __future__ import annotations
 
 from collections.abc import Callable
+from functools import partial
 
 import numpy as np
 from numpy.typing import NDArray
@@ -38,7 +39,7 @@ from fabhal.model import Model
 from fabhal.optimize import least_squares_objective
 from fabhal.solve import target as target_mod
 from fabhal.solve.forces import friction_slides, slide_dofs
-from fabhal.solve.steps import Problem
+from fabhal.solve.steps import Problem, residual_stalled
 
 Index = NDArray[np.intp]
 
@@ -145,9 +146,4 @@ def aim(
     return v
 
 
-def _stalled(costs: list[float]) -> bool:
-    """The residual (costs are |r|^2 / 2) came less than AIM_GAIN_MM nearer in AIM_STALL_STEPS steps."""
-    if len(costs) <= AIM_STALL_STEPS:
-        return False
-    before, now = (np.sqrt(2.0 * max(c, 0.0)) for c in (costs[-1 - AIM_STALL_STEPS], costs[-1]))
-    return bool(before - now < AIM_GAIN_MM)
+_stalled = partial(residual_stalled, steps=AIM_STALL_STEPS, gain_mm=AIM_GAIN_MM)

@@ -54,7 +54,7 @@ RUNNER_UP_MM = 100.0  # see _worth_settling
 # probes finished at most, best first: the answer and its runner-up; a third
 # rarely wins and costs a whole fit (an unreachable target stalls from every start)
 FINISHED_FITS = 2
-FIT_STALL_STEPS = 15  # see _fit_stalled
+FIT_STALL_STEPS = 15  # see residual_stalled
 # no DoF moves its connection more than this in one step (mm; degrees count as mm):
 # longer steps from a nearly singular model took up to 18 halvings each
 MAX_STEP_MM = 50.0
@@ -294,14 +294,18 @@ def _worth_settling(cost: float, best: float) -> bool:
     return bool(np.isfinite(cost) and np.sqrt(cost) - np.sqrt(best) <= RUNNER_UP_MM)
 
 
-def _fit_stalled(costs: list[float]) -> bool:
-    """The fit's last FIT_STALL_STEPS steps brought the target less than GOOD_FIT
-    closer (costs are |r|^2 / 2): the rest is not worth it, as the target
-    then settles under gravity anyway (the reading nook crept 1 mm in 100 evaluations)."""
-    if len(costs) <= FIT_STALL_STEPS:
+def residual_stalled(costs: list[float], steps: int, gain_mm: float) -> bool:
+    """A least-squares fit's last `steps` steps brought its residual less than
+    `gain_mm` nearer (costs are |r|^2 / 2): the rest is not worth it."""
+    if len(costs) <= steps:
         return False
-    before, now = (np.sqrt(2.0 * max(c, 0.0)) for c in (costs[-1 - FIT_STALL_STEPS], costs[-1]))
-    return bool(before - now < GOOD_FIT)
+    before, now = (np.sqrt(2.0 * max(c, 0.0)) for c in (costs[-1 - steps], costs[-1]))
+    return bool(before - now < gain_mm)
+
+
+# step 1's fit: the target less than GOOD_FIT closer in FIT_STALL_STEPS steps; it then
+# settles under gravity anyway (the reading nook crept 1 mm in 100 evaluations)
+_fit_stalled = partial(residual_stalled, steps=FIT_STALL_STEPS, gain_mm=GOOD_FIT)
 
 
 # ---------------------------------------------------------------- step 2
