@@ -426,12 +426,22 @@ def _aimed(
     moved = np.abs((start - settled.x)[step1.free] * step1.scale).max(initial=0.0)
     if not np.all(np.isfinite(start)) or moved < CHOICE_TOLD_MM or step1.out_of_time():
         return settled, []  # nothing worth settling again
+    nearer = _target_distance(model, goal, settled.x) - _target_distance(model, goal, start)
+    if not settled.falls and nearer < aim_mod.AIM_GAIN_MM:
+        # the aim itself came no nearer: settled from there it would not either (from a
+        # result that leans on a stop, reaching rest is the gain, not nearness)
+        return settled, []
     aimed = _settle(step1, start, masses, centres, goal, world)
     ranks = [_rank(goal, model.part_frames(s.x), s) for s in (aimed, settled)]
     inside = any(c.depth > OVERLAP_KEPT_MM for c in contacts_at(model, aimed.x, pairs, weight))
     if ranks[0] >= ranks[1] or inside:
         return settled, []
     return aimed, [_choice_note(step1, chosen, settled, aimed.x, goal)]
+
+
+def _target_distance(model: Model, goal: target_mod.TargetGoal, x: Array) -> float:
+    """The target's residual at x (mm, degrees weighted as in step 1's fit)."""
+    return float(np.linalg.norm(target_mod.residual(goal, target_mod.achieved(goal, model.part_frames(x)))))
 
 
 # a choice that moved its connection less than this (mm; degrees as mm) is not worth telling
