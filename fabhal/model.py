@@ -109,6 +109,12 @@ class Model:
 
     # ---- kinematics (vectorised over all connections; see `layout`)
 
+    def side_of(self, i: int) -> Side:
+        """The side of its connection whose primitive DoF i belongs to."""
+        variable = self.variables[i]
+        joint = self.joints[variable.joint]
+        return joint.a if variable.side == "a" else joint.b
+
     def connector_frame(self, side: Side, x: Array, part_frames: Array) -> Array:
         """(4, 4) world frame of one side's connector."""
         values = x[list(side.dof_indices)]

@@ -43,6 +43,7 @@ from fabhal.solve.steps import (
     mm_per_unit,
     potential,
     settle,
+    unbalanced_force,
     with_friction,
     with_target_pull,
 )
@@ -341,7 +342,7 @@ def _solve_once(model: Model, options: SolveOptions, loop_start: Array | None) -
             if disagreement is not None:
                 notes.append(disagreement)
         if options.aim and not step1.out_of_time():
-            settled, aimed = _aimed(step1, settled, masses, centres, goal, pairs, options)
+            settled, aimed = _aimed(step1, settled, masses, centres, goal, pairs, world, options)
             notes.extend(aimed)
         if not settled.falls and not _at_rest(settled) and np.isfinite(settled.equilibrium or 0.0):
             notes.append(
@@ -406,10 +407,12 @@ def _aimed(
     centres: Array,
     goal: target_mod.TargetGoal,
     pairs: Pairs,
+    world: Pairs,
     options: SolveOptions,
 ) -> tuple[Settled, list[Diagnostic]]:
     """The settled result with the builder's choices aimed (fabhal/solve/aim.py)
-    if that ranks first (`_rank`) and leaves no part inside another, with a note
+    if that ranks first (`_rank`) and leaves no part inside another (`pairs`:
+    all; `world`: those against the environment, the settle's), with a note
     saying what was chosen; else the result as it was."""
     model = step1.model
     chosen = aim_mod.choices(step1)
@@ -420,7 +423,6 @@ def _aimed(
         return settled, []
     options.report("step 3: aiming the settings that stay put, for where the hack hangs")
     weight = _weight(masses)
-    world = pairs.against({i for i, part in enumerate(model.parts) if part.environment})
     energy = with_contacts(model, potential(model, masses, centres), world, weight)
     start = step1.full(aim_mod.aim(step1, settled.x, energy, goal, weight, chosen))
     moved = np.abs((start - settled.x)[step1.free] * step1.scale).max(initial=0.0)
@@ -505,8 +507,7 @@ def _choice_text(model: Model, i: int, value: float, length: float) -> str:
     where = variable.name.rsplit(".", 1)[0]  # part.primitive
     if not dof.periodic and dof.high <= 1.0:
         return f"{value * length:.0f} mm along {where} (of {length:.0f})"
-    joint = model.joints[variable.joint]
-    kind = (joint.a if variable.side == "a" else joint.b).primitive.kind
+    kind = model.side_of(i).primitive.kind
     if dof.lean:
         return f"tilted {value - dof.default:+.0f} degrees on {where}"
     if dof.name == "theta" and kind in ("hook", "hole"):  # where along its arc or round its ring
@@ -912,9 +913,8 @@ def _verify(
     inside = np.array([k for k in range(len(free)) if k not in resting], dtype=int)
     force = gradient.copy()
     if rows and len(inside):
-        constraint = np.vstack(rows) / per_mm  # the same change of variables as the gradient
-        multipliers = np.linalg.lstsq(constraint[:, inside].T, -gradient[inside], rcond=None)[0]
-        force = gradient + constraint.T @ multipliers
+        # the same change of variables as the gradient
+        force = unbalanced_force(gradient, np.vstack(rows) / per_mm, inside)
     stationarity = float(np.abs(force[inside]).max()) if len(inside) else 0.0
     falls: list[Fall | Lean] = []
     for k, end in resting.items():
@@ -930,7 +930,7 @@ def _verify(
         if outward and pushed and is_open:
             falls.append(Fall(joint.index, i, end, _falling_part(model, joint, model.variables[i].side)))
         elif outward and dof.lean and abs(force[k]) > LEAN_CARRIES and not _in_a_corner(problem, x, i):
-            part = model.parts[(joint.a if model.variables[i].side == "a" else joint.b).part].name
+            part = model.parts[model.side_of(i).part].name
             falls.append(Lean(joint.index, i, end, float(abs(force[k])), part))
     at_bound = tuple(sorted(int(free[k]) for k in resting))
     return stationarity, at_bound, tuple(falls)
@@ -941,9 +941,7 @@ def _in_a_corner(problem: Problem, x: Array, lean: int) -> bool:
     in the corner where a basket's handle bends down, which stops the lean as
     a real end does (a hook pushed into the bend of a U-handle)."""
     model = problem.model
-    joint = model.joints[model.variables[lean].joint]
-    side = joint.a if model.variables[lean].side == "a" else joint.b
-    slide = side.dof_indices[0]
+    slide = model.side_of(lean).dof_indices[0]
     dof = model.variables[slide].dof
     if dof.name != "t" or slide == lean:
         return False
@@ -991,7 +989,7 @@ def _fall_diagnostic(model: Model, fall: Fall | Topple | Lean) -> Diagnostic:
     variable = model.variables[fall.dof]
     joint = model.joints[fall.joint]
     end = joint.connection.a if variable.side == "a" else joint.connection.b
-    primitive = (joint.a if variable.side == "a" else joint.b).primitive
+    primitive = model.side_of(fall.dof).primitive
     value = variable.dof.low if fall.end == "min" else variable.dof.high
     where = (
         f"the tip of {primitive.kind} `{end}`"

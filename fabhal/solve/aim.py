@@ -39,7 +39,7 @@ from fabhal.model import Model
 from fabhal.optimize import least_squares_objective
 from fabhal.solve import target as target_mod
 from fabhal.solve.forces import friction_slides, slide_dofs
-from fabhal.solve.steps import Problem, residual_stalled
+from fabhal.solve.steps import Problem, residual_stalled, unbalanced_force
 
 Index = NDArray[np.intp]
 
@@ -92,9 +92,7 @@ def aim(
         lean's end: E509)."""
         force = energy(problem.full(v))[1][free][moving] / per_mm[moving] / weight
         if model.closures:
-            constraint = (problem.closure_jacobian(v) / per_mm)[:, moving]
-            multipliers = np.linalg.lstsq(constraint.T, -force, rcond=None)[0]
-            force = force + constraint.T @ multipliers
+            force = unbalanced_force(force, (problem.closure_jacobian(v) / per_mm)[:, moving])
         # pressed onto an end, the end carries it; not a lean's (nothing real holds it there)
         at_low = (v[moving] <= low[moving]) & ~leans
         at_high = (v[moving] >= high[moving]) & ~leans

@@ -435,8 +435,7 @@ def mm_per_unit(model: Model) -> Array:
     scales = np.ones(len(model.variables))
     for i, variable in enumerate(model.variables):
         if not variable.dof.periodic and variable.dof.high <= 1.0:
-            joint = model.joints[variable.joint]
-            primitive = (joint.a if variable.side == "a" else joint.b).primitive
+            primitive = model.side_of(i).primitive
             if variable.dof.name in SURFACE_DIMENSION:  # a surface's t1 runs across its width, t2 along it
                 lengths = [primitive.params[SURFACE_DIMENSION[variable.dof.name]]]
             else:
@@ -452,6 +451,17 @@ def _feasible(problem: Problem, v: Array) -> bool:
     if closure_residual_mm(problem.model, problem.full(v)) > 1e-4:
         return False
     return not problem.spacing or bool(problem.spacing_values(v).min() > -1e-6)
+
+
+def unbalanced_force(gradient: Array, constraint: Array, fitted: Array | None = None) -> Array:
+    """The generalised force the constraints leave unbalanced: `gradient` less
+    the combination of constraint forces (the rows of `constraint`, in the same
+    variables) that cancels most of it over the DoFs `fitted` (all by default),
+    by least squares."""
+    columns = slice(None) if fitted is None else fitted
+    multipliers = np.linalg.lstsq(constraint[:, columns].T, -gradient[columns], rcond=None)[0]
+    force: Array = gradient + constraint.T @ multipliers
+    return force
 
 
 def closure_residual_mm(model: Model, x: Array) -> float:
