@@ -34,14 +34,21 @@ class CheckResult:
         return self.program.sources
 
 
-def check(path: Path, bindings: Mapping[str, str] | None = None, seed: int = 0) -> CheckResult:
+def check(
+    path: Path | LoadedProgram, bindings: Mapping[str, str] | None = None, seed: int = 0
+) -> CheckResult:
     """Everything before solving: read, parse, resolve imports, check the part
     definitions, elaborate the program (bind `param`s, unroll loops, resolve
     names), then check every rule of connecting (fabhal.check).
 
+    `path` may be a program already read (a family's members share one).
     Raises `load.InputError` when the file itself cannot be read.
     """
-    return _checked(load_program(path), bindings, seed, float("inf"))
+    return _checked(_loaded(path), bindings, seed, float("inf"))
+
+
+def _loaded(path: Path | LoadedProgram) -> LoadedProgram:
+    return path if isinstance(path, LoadedProgram) else load_program(path)
 
 
 def part_library() -> CheckResult:
@@ -69,7 +76,7 @@ class SolveResult:
 
 
 def solve(
-    path: Path,
+    path: Path | LoadedProgram,
     bindings: Mapping[str, str] | None = None,
     seed: int = 0,
     time_limit: float | None = None,
@@ -81,13 +88,14 @@ def solve(
 
     `time_limit` (seconds) counts from here and bounds every stage: reading,
     checking (the loops' closure solve) and solving. `two_step`: the paper's
-    two steps only, without aiming the builder's choices (fabhal/solve/aim.py)."""
+    two steps only, without aiming the builder's choices (fabhal/solve/aim.py).
+    `path` may be a program already read, as for `check`."""
     from fabhal.solve import NumericFailure, SolveOptions
     from fabhal.solve import solve as run_solver
 
     started = time.perf_counter()
     deadline = time.monotonic() + time_limit if time_limit is not None else float("inf")
-    program = load_program(path)
+    program = _loaded(path)
     parsed = time.perf_counter()
     result = _checked(program, bindings, seed, deadline)
     checked = time.perf_counter()

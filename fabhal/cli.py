@@ -144,6 +144,39 @@ when run from a checkout (or -o FILE). See bench/README.md.
 """
 
 
+SEARCH_EPILOG = """\
+examples:
+  fabhal search {gallery}/clip_light_family.fhl        all 336 members, on every core
+  fabhal search {gallery}/clip_light_family.fhl -D ring=RingS -D n=4   hold params: one row of it
+  fabhal search family.fhl --sample 40 --seed 3        a random 40 of the members
+  fabhal search family.fhl --inventory mine.toml       only what you own (`DoubleHook = 4` lines)
+  fabhal search family.fhl --emit best/ --render best/ --plot errors.png
+  fabhal search family.fhl --resume                    go on after an interruption
+  fabhal search family.fhl --executor dask://10.0.0.5:8786   on a Dask cluster
+
+A family is every combination of the values of the program's `param`s
+(`param n in 1 .. 4`, `param e in linspace(0, 45.7, 21)`, `param ring in
+[RingS, RingM]`). Each member is checked (members the check or the inventory
+rejects are counted by reason, with one example each), the rest are solved in
+parallel and ranked: those that hang at rest by where the target settles
+(position error, then rotation), then by number of parts. With a param whose
+values are part types, the best member for each of them is reported too.
+
+Every result is appended to the log (--log, default NAME.search.jsonl in the
+working directory) as it finishes; after Ctrl-C, `--resume` solves only what
+is missing. --emit writes the best members as programs with their params
+bound (`fabhal solve` gives the same answer); --render draws them and a contact
+sheet of them side by side; --plot draws the target error against the params.
+
+Dask: `pip install 'fabhal[dask]'` where you run this and on the workers,
+start `dask scheduler` and `dask worker HOST:8786` (FabHaL must be importable
+by every worker), then pass --executor dask://HOST:8786.
+
+exit status: 0 at least one member hangs at rest, 1 none does (or the
+program has errors), 2 a file could not be read or written (or an internal error).
+"""
+
+
 GALLERY_EPILOG = """\
 examples:
   fabhal gallery                               every program and sub-assembly, with what it is
@@ -370,6 +403,8 @@ def build_parser() -> argparse.ArgumentParser:
     parts.add_argument("--json", action="store_true", help="print JSON instead of tables")
     parts.set_defaults(run=run_parts)
 
+    _add_search_command(commands, formatter, gallery)
+
     gallery_command = commands.add_parser(
         "gallery",
         help="list the example hacks and the reusable sub-assemblies, and where they are",
@@ -381,6 +416,51 @@ def build_parser() -> argparse.ArgumentParser:
     gallery_command.add_argument("--json", action="store_true", help="print JSON instead of a table")
     gallery_command.set_defaults(run=run_gallery)
     return parser
+
+
+def _positive(text: str) -> int:
+    if not text.isdigit() or int(text) < 1:
+        raise argparse.ArgumentTypeError(f"expected a whole number of at least 1; got {text!r}")
+    return int(text)
+
+
+def _add_search_command(commands: Any, formatter: Any, gallery: str) -> None:
+    from fabhal.search.executors import default_jobs
+
+    search = commands.add_parser(
+        "search",
+        help="solve every member of a program's family of designs and rank them",
+        description="Enumerate every combination of a program's `param` values, check and solve the "
+        "members in parallel, and rank them by where the target settles.",
+        epilog=SEARCH_EPILOG.format(gallery=gallery),
+        formatter_class=formatter,
+    )
+    search.add_argument("file", type=Path, metavar="FILE", help=".fhl program with `param`s")
+    search.add_argument("--sample", type=_positive, metavar="N", help="solve a random N of the members")
+    search.add_argument(
+        "-j", "--jobs", type=_positive, default=default_jobs(), help="worker processes (default: all cores)"
+    )
+    search.add_argument("--executor", metavar="dask://HOST:PORT", help="solve on a Dask cluster instead")
+    search.add_argument(
+        "--inventory",
+        type=Path,
+        metavar="FILE.toml",
+        help="reject members that use more of a part than this file lists (`PartType = count` lines)",
+    )
+    search.add_argument(
+        "--top", type=_positive, default=10, metavar="K", help="show, emit, render the best K (10)"
+    )
+    search.add_argument("--json", action="store_true", help="print every member and the ranking as JSON")
+    search.add_argument("--csv", type=Path, metavar="FILE", help="write every member as CSV")
+    search.add_argument(
+        "--log", type=Path, metavar="FILE", help="the results log (default NAME.search.jsonl)"
+    )
+    search.add_argument("--resume", action="store_true", help="keep the log's members, solve the rest")
+    search.add_argument("--emit", type=Path, metavar="DIR", help="write the best K as .fhl programs")
+    search.add_argument("--render", type=Path, metavar="DIR", help="draw the best K and a contact sheet")
+    search.add_argument("--plot", type=Path, metavar="FILE.png", help="plot target error against the params")
+    _add_solver_options(search)
+    search.set_defaults(run=run_search)
 
 
 def _print_diagnostics(diagnostics: Sequence[Diagnostic], sources: dict[str, SourceFile]) -> None:
@@ -532,6 +612,187 @@ def _render(result: Any, output: Path, args: argparse.Namespace, summary: dict[s
         return EXIT_USAGE
     print(f"wrote {output} ({result.status.replace('_', ' ')})", file=sys.stderr)
     return None
+
+
+def run_search(args: argparse.Namespace) -> int:
+    from fabhal import search as family
+    from fabhal.load import InputError
+    from fabhal.search.executors import ExecutorError
+    from fabhal.search.log import LogError
+
+    if args.no_gravity:
+        print("fabhal: search ranks where each member hangs: --no-gravity does not apply", file=sys.stderr)
+        return EXIT_USAGE
+    try:
+        plan = family.plan(args.file, family.SearchOptions(pinned=dict(args.define)))
+    except InputError as exc:
+        _print_diagnostics(exc.diagnostics, {})
+        return EXIT_USAGE
+    if not plan.members:
+        _print_diagnostics(plan.diagnostics, plan.program.sources)
+        print(f"{args.file}: no members to solve", file=sys.stderr)
+        return EXIT_DIAGNOSTICS
+    options = _search_options(args, plan)
+    if isinstance(options, int):
+        return options
+    log = args.log or Path(f"{args.file.stem}.search.jsonl")
+    try:
+        outcome = _search_with_progress(plan, options, log, args)
+    except (ExecutorError, LogError) as exc:
+        print(f"fabhal: {exc}", file=sys.stderr)
+        return EXIT_USAGE
+    except OSError as exc:
+        print(f"fabhal: cannot write the log {log}: {exc.strerror}", file=sys.stderr)
+        return EXIT_USAGE
+    return _report_search(plan, outcome, options, log, args)
+
+
+def _search_options(args: argparse.Namespace, plan: Any) -> Any:
+    """The search's options, with the inventory read; an exit code if it cannot be."""
+    from fabhal import search as family
+    from fabhal.inventory import InventoryError, read_inventory
+    from fabhal.library import build_library
+
+    inventory = None
+    if args.inventory is not None:
+        try:
+            inventory = read_inventory(args.inventory, build_library(plan.program)[0])
+        except InventoryError as exc:
+            sources = {exc.source.name: exc.source} if exc.source is not None else {}
+            _print_diagnostics(exc.diagnostics, sources)
+            return EXIT_USAGE
+    return family.SearchOptions(
+        pinned=dict(args.define),
+        sample=args.sample,
+        seed=args.seed,
+        time_limit=args.time_limit,
+        two_step=args.two_step,
+        inventory=inventory,
+        jobs=args.jobs,
+        executor=args.executor,
+    )
+
+
+def _search_with_progress(plan: Any, options: Any, log: Path, args: argparse.Namespace) -> Any:
+    """family.run with a progress bar (rate, ETA, best so far) on a terminal."""
+    from fabhal import search as family
+
+    if not sys.stderr.isatty():
+        return family.run(plan, options, log, args.resume)
+    from rich.console import Console
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
+
+    best = [math.inf]
+    columns = (
+        TextColumn("{task.description}"),
+        BarColumn(),
+        MofNCompleteColumn(),
+        TextColumn("{task.fields[rate]}"),
+        TimeRemainingColumn(),
+        TextColumn("{task.fields[best]}"),
+    )
+    with Progress(*columns, console=Console(stderr=True)) as bar:
+        task = bar.add_task(f"searching {args.file.name}", total=len(plan.members), rate="", best="")
+
+        def advance(member: Any, done: int, total: int) -> None:
+            if member.status == "solved" and member.position_mm is not None:
+                best[0] = min(best[0], member.position_mm)
+            speed = bar.tasks[0].speed
+            bar.update(
+                task,
+                completed=done,
+                rate=f"{speed:.1f}/s" if speed else "",
+                best=f"best {best[0]:.1f} mm" if math.isfinite(best[0]) else "",
+            )
+
+        return family.run(plan, options, log, args.resume, advance)
+
+
+def _report_search(plan: Any, outcome: Any, options: Any, log: Path, args: argparse.Namespace) -> int:
+    from fabhal.resources import display_name
+    from fabhal.search import rank
+    from fabhal.search import report as search_report
+
+    name = display_name(args.file.resolve())
+    if args.csv is not None:
+        try:
+            search_report.write_csv(args.csv, plan, outcome.members)
+        except OSError as exc:
+            print(f"fabhal: cannot write {args.csv}: {exc.strerror}", file=sys.stderr)
+            return EXIT_USAGE
+    if args.json:
+        print(json.dumps(search_report.to_json(plan, outcome, name, options.jobs), indent=2))
+    else:
+        _print_search_summary(plan, outcome, options, name, log, args)
+    written = _search_outputs(plan, outcome, options, args)
+    if written is not None:
+        return written
+    return EXIT_OK if any(m.status == "solved" for m in rank(outcome.members)) else EXIT_DIAGNOSTICS
+
+
+def _print_search_summary(
+    plan: Any, outcome: Any, options: Any, name: str, log: Path, args: argparse.Namespace
+) -> None:
+    from fabhal.search import report as search_report
+
+    console = _console()
+    print(f"{name}: {search_report.counts_line(plan, outcome)}")
+    for line in search_report.rejection_lines(outcome):
+        print(line)
+    if any(m.position_mm is not None for m in outcome.members):
+        console.print(search_report.ranked_table(plan, outcome, args.top))
+    for line in search_report.best_per_lines(plan, outcome):
+        print(line)
+    solved_here = len(outcome.members) - outcome.resumed
+    where = options.executor or f"{options.jobs} worker{'s' if options.jobs != 1 else ''}"
+    resumed = f" ({outcome.resumed} read back from the log)" if outcome.resumed else ""
+    print(f"{solved_here} members in {outcome.elapsed_s:.1f} s on {where}{resumed}; log: {log}")
+    if not outcome.complete:
+        print(
+            f"interrupted: {len(outcome.members)} of {len(plan.members)} members done; "
+            f"run again with --resume to finish",
+            file=sys.stderr,
+        )
+
+
+def _search_outputs(plan: Any, outcome: Any, options: Any, args: argparse.Namespace) -> int | None:
+    """--emit, --render and --plot; an exit code if one could not be written."""
+    from fabhal.search import rank
+
+    best = rank(outcome.members)[: args.top]
+    try:
+        if args.emit is not None:
+            from fabhal.search.emit import emit_member
+
+            for place, member in enumerate(best, start=1):
+                emit_member(plan.program, member, place, args.emit)
+            print(f"wrote the best {len(best)} as programs to {args.emit}/", file=sys.stderr)
+        if args.render is not None:
+            _render_best(plan, best, options, args.render)
+        if args.plot is not None:
+            from fabhal.search.pictures import plot_errors
+
+            plot_errors(plan, outcome.members, args.plot)
+            print(f"wrote {args.plot}", file=sys.stderr)
+    except OSError as exc:
+        print(f"fabhal: cannot write {exc.filename or 'the output'}: {exc.strerror}", file=sys.stderr)
+        return EXIT_USAGE
+    return None
+
+
+def _render_best(plan: Any, best: Any, options: Any, directory: Path) -> None:
+    from fabhal.search.pictures import render_members
+
+    if not sys.stderr.isatty():
+        written = render_members(plan, best, options, directory)
+    else:
+        from rich.console import Console
+
+        with Console(stderr=True).status("drawing") as status:
+            written = render_members(
+                plan, best, options, directory, lambda i, n: status.update(f"drawing {i} of {n}")
+            )
+    print(f"drew {len(written) - 1} members and {written[-1]}", file=sys.stderr)
 
 
 def run_bench(args: argparse.Namespace) -> int:

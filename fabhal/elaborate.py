@@ -636,7 +636,8 @@ def _domain_values(domain: ast.Domain, scope: _Scope) -> list[Value | str]:
         )
     _limit_domain(count, domain.count.span)
     step = (stop - start) / (count - 1) if count > 1 else 0.0
-    return [start + k * step for k in range(count)]
+    # to 12 significant digits: 7 x 2.285 is 15.995 as written, not 15.995000000000001
+    return [float(f"{start + k * step:.12g}") for k in range(count)]
 
 
 def _limit_domain(count: int, span: Span) -> None:
@@ -689,3 +690,76 @@ def elaborate(
     elaborator = _Elaborator(program, library, bindings or {})
     flat = elaborator.run(program.main)
     return flat, elaborator.problems
+
+
+# Members of one family (`fabhal search`): enough for every param combination a
+# user would solve (the clip-light study is 336), few enough that a runaway
+# product of domains is a message, not minutes of enumerating.
+FAMILY_MEMBER_LIMIT = 100_000
+
+
+def binding_text(value: Value | str) -> str:
+    """A param value as `-D NAME=VALUE` writes it; reads back as the same float."""
+    if isinstance(value, float) and value.is_integer():
+        return str(int(value))
+    return repr(value) if isinstance(value, float) else str(value)
+
+
+def family(
+    program: LoadedProgram, pinned: Mapping[str, str] | None = None
+) -> tuple[list[dict[str, str]], list[Diagnostic]]:
+    """Every combination of values of the program's top-level `param`s, in the
+    order they are declared (the last varies fastest), as bindings in the form
+    `-D` takes. A domain may use the params above it (`param k in 1 .. n`):
+    it is evaluated for each of their values. `pinned` params take only their
+    given value (checked when each member is elaborated)."""
+    if program.main is None:
+        return [], []
+    pinned = dict(pinned or {})
+    decls = [s for s in program.main.statements if isinstance(s, ast.ParamDecl)]
+    members: list[dict[str, str]] = []
+    try:
+        _extend_family(decls, _Scope(""), {}, pinned, members)
+    except FabhalError as exc:
+        return [], list(exc.diagnostics)
+    unknown = sorted(set(pinned) - {d.name for d in decls})
+    if unknown:
+        names = ", ".join(d.name for d in decls) or "none"
+        missing = f"-D {unknown[0]}=...: the program has no `param {unknown[0]}`"
+        return [], [error("E310", missing, None, f"its parameters: {names}")]
+    return members, []
+
+
+def _extend_family(
+    decls: list[ast.ParamDecl],
+    scope: _Scope,
+    chosen: dict[str, str],
+    pinned: Mapping[str, str],
+    members: list[dict[str, str]],
+) -> None:
+    if not decls:
+        if len(members) >= FAMILY_MEMBER_LIMIT:
+            raise FabhalError([_too_many_members()])
+        members.append(dict(chosen))
+        return
+    decl, rest = decls[0], decls[1:]
+    if decl.name in pinned:
+        values: list[Value | str] = [_parse_binding(pinned[decl.name])]
+    else:
+        values = _domain_values(decl.domain, scope)
+    for value in values:
+        scope.values[decl.name] = value
+        chosen[decl.name] = pinned.get(decl.name) or binding_text(value)
+        _extend_family(rest, scope, chosen, pinned, members)
+    scope.values.pop(decl.name, None)
+    chosen.pop(decl.name, None)
+
+
+def _too_many_members() -> Diagnostic:
+    return error(
+        "E312",
+        f"this family has more than {FAMILY_MEMBER_LIMIT:,} members",
+        None,
+        "fix some params with -D NAME=VALUE, use fewer values in a `linspace`, or solve a random "
+        "subset with --sample N",
+    )

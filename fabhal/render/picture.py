@@ -115,11 +115,11 @@ def _view(scene: Scene, focus: Array, view: str, width: int, height: int) -> Any
     _target_axes(draw, scene, camera, focus)
     taken = _labels(draw, solid, owner, camera)
     _labels(draw, overlays, overlay_owner, camera, taken)
-    title_box = draw.textbbox((12, 10), VIEW_TITLES[view], font=_font(15))
+    title_box = draw.textbbox((12, 10), VIEW_TITLES[view], font=label_font(15))
     draw.rectangle(
         [title_box[0] - 4, title_box[1] - 3, title_box[2] + 4, title_box[3] + 3], fill=(255, 255, 255)
     )
-    draw.text((12, 10), VIEW_TITLES[view], fill=(90, 90, 90), font=_font(15))
+    draw.text((12, 10), VIEW_TITLES[view], fill=(90, 90, 90), font=label_font(15))
     return picture
 
 
@@ -178,7 +178,7 @@ def _target_axes(draw: ImageDraw.ImageDraw, scene: Scene, camera: Camera, focus:
         a = start + (end - start) * k / gap
         b = start + (end - start) * min(k + 6, gap) / gap
         draw.line([tuple(a), tuple(b)], fill=(60, 60, 60), width=2)
-    font = _font(13)
+    font = label_font(13)
     draw.text(tuple(end + 6), "requested", fill=(60, 60, 60), font=font)
 
 
@@ -194,7 +194,7 @@ def _labels(
 ) -> list[Box]:
     """Each visible part's name beside its visible pixels, with a leader line;
     labels never overlap each other or those in `taken`. Returns every label's box."""
-    font = _font(14)
+    font = label_font(14)
     taken = [] if taken is None else taken
     for k, item in enumerate(items):
         if item.role in ("environment", "primitive"):
@@ -218,7 +218,7 @@ def _labels(
 def _header(draw: ImageDraw.ImageDraw, scene: Scene, summary: dict[str, Any], width: int) -> None:
     draw.rectangle([0, 0, width, HEADER], fill=(255, 255, 255))
     draw.line([0, HEADER - 1, width, HEADER - 1], fill=(200, 200, 200))
-    draw.text((16, 10), scene.title, fill=(20, 20, 20), font=_font(20))
+    draw.text((16, 10), scene.title, fill=(20, 20, 20), font=label_font(20))
     status = scene.status.replace("_", " ")
     target = summary.get("target") or {}
     detail = ""
@@ -227,8 +227,8 @@ def _header(draw: ImageDraw.ImageDraw, scene: Scene, summary: dict[str, Any], wi
             f"target {target['part']}: {target['position_error_mm']:.1f} mm, "
             f"{target['rotation_error_deg']:.1f} deg from requested"
         )
-    draw.text((16, 38), status, fill=STATUS_COLORS.get(scene.status, (120, 120, 120)), font=_font(16))
-    draw.text((130, 38), detail, fill=(70, 70, 70), font=_font(16))
+    draw.text((16, 38), status, fill=STATUS_COLORS.get(scene.status, (120, 120, 120)), font=label_font(16))
+    draw.text((130, 38), detail, fill=(70, 70, 70), font=label_font(16))
     legend: list[tuple[str, tuple[int, int, int] | None]] = [
         ("environment", (158, 160, 168)),
         ("target", (245, 140, 31)),
@@ -240,11 +240,11 @@ def _header(draw: ImageDraw.ImageDraw, scene: Scene, summary: dict[str, Any], wi
         red, green, blue = (round(255 * c) for c in HELD_COLOR)
         legend.append(("held (set when building)", (red, green, blue)))
     legend.append(("requested target axes: x y z", None))
-    font = _font(14)
+    font = label_font(14)
     widths = [int(draw.textlength(text, font=font)) + (18 if color else 0) + 18 for text, color in legend]
     # on the title's row, right-aligned; left out where it would run into the title
     x = width - sum(widths)
-    if x < 16 + int(draw.textlength(scene.title, font=_font(20))) + 24:
+    if x < 16 + int(draw.textlength(scene.title, font=label_font(20))) + 24:
         return
     for (text, color), taken in zip(legend, widths, strict=True):
         if color is not None:
@@ -254,7 +254,7 @@ def _header(draw: ImageDraw.ImageDraw, scene: Scene, summary: dict[str, Any], wi
 
 
 @cache
-def _font(size: int) -> Any:
+def label_font(size: int) -> Any:
     from PIL import ImageFont
 
     return ImageFont.load_default(size=size)

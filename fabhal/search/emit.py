@@ -1,0 +1,91 @@
+"""A member of a family as a program of its own: the family's text with every
+`param` bound to the member's value, so `fabhal solve` on it gives the answer
+the search ranked (the same text, the same values, the same solver)."""
+
+from __future__ import annotations
+
+import os
+import re
+from collections.abc import Mapping
+from pathlib import Path
+
+from fabhal.load import LoadedProgram
+from fabhal.resources import display_name
+from fabhal.search.members import MemberResult
+from fabhal.search.report import describe, short
+from fabhal.source import Span
+from fabhal.syntax import ast
+
+
+def emit_member(program: LoadedProgram, member: MemberResult, place: int, directory: Path) -> Path:
+    """Write the member as `directory/NN_name_param-value....fhl`; returns its path."""
+    assert program.main is not None  # a family has members only when its program parsed
+    main_path = program.paths[program.main.file]
+    text = program.sources[program.main.file].text
+    edits = [
+        *_bound_params(program.main, text, member.bindings),
+        *_moved_imports(program.main, main_path, directory),
+    ]
+    for span, replacement in sorted(edits, key=lambda e: _offset(text, e[0].line, e[0].column), reverse=True):
+        start = _offset(text, span.line, span.column)
+        end = _offset(text, span.end_line, span.end_column)
+        text = text[:start] + replacement + text[end:]
+    header = (
+        f"# Member {member.key} of {display_name(main_path)}, found by `fabhal search` "
+        f"(#{place}: {describe(member)}).\n"
+        "# Its params are bound below; solve it with `fabhal solve`.\n\n"
+    )
+    directory.mkdir(parents=True, exist_ok=True)
+    path = directory / (member_file_name(program, member, place) + ".fhl")
+    path.write_text(header + text)
+    return path
+
+
+def member_file_name(program: LoadedProgram, member: MemberResult, place: int) -> str:
+    """`03_clip_light_family_ring-RingM_n-3_extension-43.415`: its rank, family and values."""
+    stem = Path(program.main.file).stem if program.main is not None else "member"
+    return f"{place:02d}_{stem}_{_slug(member.bindings)}"
+
+
+def _bound_params(module: ast.Module, text: str, bindings: Mapping[str, str]) -> list[tuple[Span, str]]:
+    """Each top-level param's default replaced by (or given) the member's value."""
+    edits = []
+    for statement in module.statements:
+        if isinstance(statement, ast.ParamDecl) and statement.name in bindings:
+            value = bindings[statement.name]
+            if statement.default is not None:
+                edits.append((statement.default.span, value))
+            else:
+                end = statement.span
+                edits.append(
+                    (
+                        Span(end.file, end.end_line, end.end_column, end.end_line, end.end_column),
+                        f" = {value}",
+                    )
+                )
+    return edits
+
+
+def _moved_imports(module: ast.Module, main_path: Path, directory: Path) -> list[tuple[Span, str]]:
+    """Imports found next to the family's file, rewritten relative to `directory`
+    (those of the library or the gallery are found from anywhere)."""
+    edits = []
+    for statement in module.statements:
+        if not isinstance(statement, ast.ImportStmt):
+            continue
+        beside = (main_path.parent / statement.path).resolve()
+        if beside.is_file() and (directory / statement.path).resolve() != beside:
+            relative = Path(os.path.relpath(beside, directory.resolve())).as_posix()
+            edits.append((statement.span, f'import "{relative}"'))
+    return edits
+
+
+def _offset(text: str, line: int, column: int) -> int:
+    starts = [0, *(m.end() for m in re.finditer("\n", text))]
+    return starts[line - 1] + column - 1
+
+
+def _slug(bindings: Mapping[str, str]) -> str:
+    return "_".join(
+        f"{name}-{re.sub(r'[^A-Za-z0-9.+-]', '', short(value))}" for name, value in bindings.items()
+    )

@@ -1,0 +1,150 @@
+"""`fabhal search` as a library: members checked, solved, logged, ranked, resumed.
+
+The family is tests/data/search/mug_family.fhl: a mug on n = 1..3 S-hooks of
+two sizes from a rod of radius 2 or 40 mm. An S-hook's opening is 19.2 mm
+(DoubleHook), so on the 80 mm thick rod every member is rejected by the
+check (E404) before solving: 6 rejected, 6 solved.
+"""
+
+from __future__ import annotations
+
+import json
+from functools import cache
+from pathlib import Path
+
+import pytest
+
+from fabhal import api
+from fabhal.search import SearchOptions, SearchOutcome, best_by, plan, rank, rejections, run
+from fabhal.search.log import LogError
+from fabhal.search.members import REJECTED
+from tests.conftest import DATA
+
+FAMILY = DATA / "search" / "mug_family.fhl"
+ONE_PROCESS = SearchOptions(jobs=1)
+
+
+@cache
+def full_search(log_dir: str) -> SearchOutcome:
+    return run(plan(FAMILY, ONE_PROCESS), ONE_PROCESS, Path(log_dir) / "full.jsonl")
+
+
+@pytest.fixture(scope="module")
+def searched(tmp_path_factory: pytest.TempPathFactory) -> tuple[SearchOutcome, Path]:
+    directory = tmp_path_factory.mktemp("search")
+    return full_search(str(directory)), directory / "full.jsonl"
+
+
+def test_every_member_is_checked_and_those_that_fit_are_solved(searched: tuple[SearchOutcome, Path]) -> None:
+    outcome, _ = searched
+    assert outcome.complete and len(outcome.members) == 12
+    by_status = {m.key: m.status for m in outcome.members}
+    assert all(status == REJECTED for key, status in by_status.items() if "radius=40" in key)
+    assert all(status == "solved" for key, status in by_status.items() if "radius=2 " in key)
+    (reason,) = rejections(outcome.members)
+    assert (reason.reason, reason.count, reason.member) == ("E404", 6, "radius=40 hook=DoubleHook n=1")
+    # the example is the diagnostic as `fabhal check` prints it, pointing at the line
+    assert "mug_family.fhl:16:1: error[E404]" in reason.example
+    assert "hook opening 19.2 mm < the rod's body 80 mm across" in reason.example
+
+
+def test_a_members_result_is_what_solving_it_alone_gives(searched: tuple[SearchOutcome, Path]) -> None:
+    """Same program text, same values, same seed: the same numbers (to 1e-9 mm,
+    rounding only; the solver is deterministic)."""
+    outcome, _ = searched
+    member = next(m for m in outcome.members if m.key == "radius=2 hook=DoubleHookMedium n=3")
+    alone = api.solve(FAMILY, member.bindings)
+    position, rotation = alone.solution.target_errors()
+    assert alone.status == member.status
+    assert member.position_mm == pytest.approx(position, abs=1e-9)
+    assert member.rotation_deg == pytest.approx(rotation, abs=1e-9)
+    assert member.parts == 4  # three S-hooks and the mug; the rod is the place, not a part
+
+
+def test_members_rank_by_settled_error_then_parts(searched: tuple[SearchOutcome, Path]) -> None:
+    outcome, _ = searched
+    ranked = rank(outcome.members)
+    assert len(ranked) == 6  # the rejected are not ranked
+    keys = [(m.position_mm, m.rotation_deg, m.parts) for m in ranked]
+    assert keys == sorted(keys)
+    best = best_by(outcome.members, "hook")
+    assert list(best) == ["DoubleHook", "DoubleHookMedium"]
+    assert best["DoubleHook"] == min(
+        (m for m in ranked if m.bindings["hook"] == "DoubleHook"), key=lambda m: m.position_mm
+    )
+
+
+def test_the_log_has_a_header_and_one_line_per_member(searched: tuple[SearchOutcome, Path]) -> None:
+    _, log = searched
+    lines = [json.loads(line) for line in log.read_text().splitlines()]
+    assert lines[0]["fabhal_search"] == 1 and lines[0]["program"].endswith("mug_family.fhl")
+    assert sorted(line["key"] for line in lines[1:]) == sorted(m.key for m in searched[0].members)
+
+
+def test_resume_solves_only_what_an_interrupted_log_lacks(
+    searched: tuple[SearchOutcome, Path], tmp_path: Path
+) -> None:
+    """A log cut off after three members, the fourth half written (as Ctrl-C
+    leaves it): resuming reads the three back and solves the other nine, with
+    the same answers as the uninterrupted search."""
+    outcome, full_log = searched
+    lines = full_log.read_text().splitlines()
+    log = tmp_path / "cut.jsonl"
+    log.write_text("\n".join(lines[:4]) + "\n" + lines[4][:20])
+    solved_here: list[str] = []
+    resumed = run(
+        plan(FAMILY, ONE_PROCESS),
+        ONE_PROCESS,
+        log,
+        resume=True,
+        progress=lambda m, d, t: solved_here.append(m.key),
+    )
+    assert resumed.resumed == 3 and len(solved_here) == 9
+    assert {json.loads(line)["key"] for line in lines[1:4]}.isdisjoint(solved_here)
+    before = {m.key: (m.status, m.position_mm) for m in outcome.members}
+    after = {m.key: (m.status, m.position_mm) for m in resumed.members}
+    assert after == before
+    # the log is whole again: a second resume has nothing left to do
+    again = run(plan(FAMILY, ONE_PROCESS), ONE_PROCESS, log, resume=True)
+    assert again.resumed == 12
+
+
+def test_a_log_of_other_options_is_never_mixed_in(searched: tuple[SearchOutcome, Path]) -> None:
+    _, log = searched
+    other = SearchOptions(jobs=1, seed=1)
+    with pytest.raises(LogError, match="other contents or options"):
+        run(plan(FAMILY, other), other, log, resume=True)
+
+
+def test_a_sample_is_a_seeded_subset_in_family_order() -> None:
+    everyone = plan(FAMILY, ONE_PROCESS).members
+    first = plan(FAMILY, SearchOptions(sample=5, seed=3)).members
+    assert len(first) == 5 and all(m in everyone for m in first)
+    assert [everyone.index(m) for m in first] == sorted(everyone.index(m) for m in first)
+    assert plan(FAMILY, SearchOptions(sample=5, seed=3)).members == first
+    assert plan(FAMILY, SearchOptions(sample=5, seed=4)).members != first
+
+
+def test_worker_processes_give_the_answers_of_one_process(
+    searched: tuple[SearchOutcome, Path], tmp_path: Path
+) -> None:
+    """Two spawned workers, chunks handed out and collected as they finish: each
+    member's answer is the one-process answer to 1e-9 mm (the same computation)."""
+    outcome, _ = searched
+    options = SearchOptions(jobs=2, pinned={"radius": "2"})
+    parallel = run(plan(FAMILY, options), options, tmp_path / "parallel.jsonl")
+    assert parallel.complete and len(parallel.members) == 6
+    alone = {m.key: m for m in outcome.members}
+    for member in parallel.members:
+        assert member.status == alone[member.key].status
+        assert member.position_mm == pytest.approx(alone[member.key].position_mm, abs=1e-9)
+    assert [m.key for m in rank(parallel.members)] == [m.key for m in rank(outcome.members)]
+
+
+def test_when_the_check_rejects_every_member_nothing_is_ranked(tmp_path: Path) -> None:
+    options = SearchOptions(jobs=1, pinned={"radius": "40"})
+    search = plan(FAMILY, options)
+    assert (len(search.members), search.family_size) == (6, 6)
+    outcome = run(search, options, tmp_path / "log.jsonl")
+    assert rank(outcome.members) == []
+    assert [(r.reason, r.count) for r in rejections(outcome.members)] == [("E404", 6)]
