@@ -7,8 +7,8 @@ The one format everywhere FabHaL takes an inventory (`fabhal search`, and
     RingM = 2
 
 A design may use up to `count` parts of each type listed and none of a type
-not listed. Environments (the rod, the wall) are the place, not parts the
-user spends, and are never counted.
+not listed. Environments (the rod, the wall) are the place and the target
+(the mug) is what is hung, not parts the user spends: they are never counted.
 """
 
 from __future__ import annotations
@@ -75,8 +75,9 @@ def read_inventory(path: Path, library: Library) -> Inventory:
 
 
 def parts_used(flat: FlatProgram) -> Counter[str]:
-    """How many parts of each type a design uses (environments excluded)."""
-    return Counter(part.type_name for part in flat.parts if not part.environment)
+    """How many parts of each type a design uses (environments and targets excluded)."""
+    held = {target.part for target in flat.targets}
+    return Counter(part.type_name for part in flat.parts if not part.environment and part.name not in held)
 
 
 def over_inventory(inventory: Inventory, flat: FlatProgram) -> Diagnostic | None:

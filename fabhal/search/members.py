@@ -32,7 +32,7 @@ class MemberResult:
     status: str  # solved, not_at_rest, falls_apart, out_of_time, or rejected (never solved)
     position_mm: float | None = None  # settled target error
     rotation_deg: float | None = None
-    parts: int | None = None  # parts used (environments not counted)
+    parts: int | None = None  # parts used (environments and the target not counted)
     time_s: float = 0.0
     reason: str | None = None  # rejected: the first error's code (E421, E602, ...)
     example: str | None = None  # rejected: that error as `fabhal check` prints it
