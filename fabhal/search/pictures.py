@@ -145,22 +145,30 @@ def _panel(
         (left + (right - left) / 2 - 30, bottom + 30), axis or "member", fill=(60, 60, 60), font=font(13)
     )
     draw.text((origin[0] + 8, top - 22), "target error, mm", fill=(60, 60, 60), font=font(13))
-    for index, (label, series) in enumerate(points.items()):
-        _series(
-            draw,
-            [at(x, y) if y is not None else None for x, y in series],
-            LINE_COLORS[index % len(LINE_COLORS)],
-        )
-        if label:
-            color = LINE_COLORS[index % len(LINE_COLORS)]
-            draw.line(
-                [(right - 110, top + 8 + 18 * index), (right - 90, top + 8 + 18 * index)], fill=color, width=3
-            )
-            draw.text((right - 84, top + 1 + 18 * index), label, fill=(40, 40, 40), font=font(13))
+    for index, (_, series) in enumerate(points.items()):
+        pixels = [at(x, y) if y is not None else None for x, y in series]
+        _series(draw, pixels, LINE_COLORS[index % len(LINE_COLORS)])
+    _legend(draw, [label for label in points if label], (right, top))
     if ys:
         best = min((y, x) for series in points.values() for x, y in series if y is not None)
         cx, cy = at(best[1], best[0])
         draw.ellipse([cx - 7, cy - 7, cx + 7, cy + 7], outline=(0, 0, 0), width=2)
+
+
+def _legend(draw: Any, labels: list[str], corner: tuple[float, float]) -> None:
+    """Line colours and labels in a white box in the panel's top right corner, over the lines."""
+    if not labels:
+        return
+    width = 36 + max(draw.textlength(label, font=font(13)) for label in labels)
+    left, top = corner[0] - width - 6, corner[1] + 6
+    draw.rectangle(
+        [left, top, corner[0] - 6, top + 8 + 18 * len(labels)], fill="white", outline=(200, 200, 200)
+    )
+    for index, label in enumerate(labels):
+        y = top + 12 + 18 * index
+        color = LINE_COLORS[index % len(LINE_COLORS)]
+        draw.line([(left + 6, y), (left + 26, y)], fill=color, width=3)
+        draw.text((left + 30, y - 7), label, fill=(40, 40, 40), font=font(13))
 
 
 def _x_of(member: MemberResult, axis: str | None, index: int) -> float:
