@@ -6,6 +6,7 @@ import time
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, replace
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from fabhal.check import CheckContext, CheckReport, check_program
 from fabhal.diagnostics import Diagnostic, error, has_errors, merge_repeats, sort_diagnostics
@@ -14,6 +15,9 @@ from fabhal.library import Library, build_library
 from fabhal.load import LoadedProgram, load_program
 from fabhal.model import Model, build_model
 from fabhal.source import SourceFile
+
+if TYPE_CHECKING:
+    from fabhal.kinematics.frames import Array
 
 
 @dataclass(frozen=True)
@@ -83,13 +87,16 @@ def solve(
     gravity: bool = True,
     progress: Callable[[str], None] | None = None,
     two_step: bool = False,
+    start: Array | None = None,
 ) -> SolveResult:
     """Check, then (if the design can be built) solve. Raises load.InputError for an unreadable file.
 
     `time_limit` (seconds) counts from here and bounds every stage: reading,
     checking (the loops' closure solve) and solving. `two_step`: the paper's
     two steps only, without aiming the builder's choices (fabhal/solve/aim.py).
-    `path` may be a program already read, as for `check`."""
+    `path` may be a program already read, as for `check`. `start`: a solved
+    configuration (`Solution.x`) of the same design to continue from instead
+    of fitting the target (a neighbouring member of a family)."""
     from fabhal.solve import NumericFailure, SolveOptions
     from fabhal.solve import solve as run_solver
 
@@ -115,6 +122,7 @@ def solve(
         gravity=gravity,
         aim=not two_step,
         progress=progress,
+        start=start,
     )
     try:
         solution = run_solver(result.model, options, loops.x if loops is not None else None)

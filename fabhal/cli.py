@@ -152,6 +152,7 @@ examples:
   fabhal search family.fhl --inventory mine.toml       only what you own (`DoubleHook = 4` lines)
   fabhal search family.fhl --emit best/ --render best/ --plot errors.png
   fabhal search family.fhl --resume                    go on after an interruption
+  fabhal search family.fhl --smooth                    neighbours share their settings: no jumps
   fabhal search family.fhl --executor dask://10.0.0.5:8786   on a Dask cluster
 
 A family is every combination of the values of the program's `param`s
@@ -167,6 +168,14 @@ working directory) as it finishes; after Ctrl-C, `--resume` solves only what
 is missing. --emit writes the best members as programs with their params
 bound (`fabhal solve` gives the same answer); --render draws them and a contact
 sheet of them side by side; --plot draws the target error against the params.
+
+Each member is solved on its own, so where the solver's choices (where a clip
+grips a bar, where a hook sits on a rod) land in another valley, neighbouring
+members can hang far apart. --smooth also solves each member from the solved
+configuration of the member beside it (the previous and the next value of the
+last param) and keeps whichever hangs nearer: a builder could reuse those
+settings. Such a member's emitted program says so and lists the settings to
+build; `fabhal solve` on it alone starts afresh and may settle elsewhere.
 
 Dask: `pip install 'fabhal[dask]'` where you run this and on the workers,
 start `dask scheduler` and `dask worker HOST:8786` (FabHaL must be importable
@@ -448,6 +457,12 @@ def _add_search_command(commands: Any, formatter: Any, gallery: str) -> None:
         help="reject members that use more of a part than this file lists (`PartType = count` lines)",
     )
     search.add_argument(
+        "--smooth",
+        action="store_true",
+        help="also solve each member from its neighbours' results (the last param's values before and "
+        "after): a member reuses a neighbour's settings where they hang it nearer; about 2x the time",
+    )
+    search.add_argument(
         "--top", type=_positive, default=10, metavar="K", help="show, emit, render the best K (10)"
     )
     search.add_argument("--json", action="store_true", help="print every member and the ranking as JSON")
@@ -668,6 +683,7 @@ def _search_options(args: argparse.Namespace, plan: Any) -> Any:
         time_limit=args.time_limit,
         two_step=args.two_step,
         inventory=inventory,
+        smooth=args.smooth,
         jobs=args.jobs,
         executor=args.executor,
     )

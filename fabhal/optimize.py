@@ -458,7 +458,7 @@ class _Iteration:
             return
         if self.bfgs:
             self._bfgs(s, y, sy)
-        elif sy > 1e-300:  # NL2SOL's update needs positive curvature along the step
+        elif sy > 1e-150:  # NL2SOL's update needs positive curvature along the step (and sy^2 > 0)
             assert hessian is not None
             self._nl2sol(s, y, sy, hessian)
         else:

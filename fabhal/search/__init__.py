@@ -27,16 +27,13 @@ from fabhal.inventory import Inventory
 from fabhal.load import LoadedProgram, load_program
 from fabhal.search.executors import default_jobs, open_executor
 from fabhal.search.log import LogWriter, fingerprint, read_log
-from fabhal.search.members import REJECTED, Job, MemberResult, member_key, solve_job
+from fabhal.search.members import REJECTED, Job, MemberResult, member_key, rank_key, solve_job
 
 # members per task: enough that handing out a task (pickling the program, ~5 ms)
 # is small beside solving them (0.2-0.5 s each), few enough that the work
 # stays spread over every worker to the end and the progress bar moves
 MAX_CHUNK = 8
 CHUNKS_PER_WORKER = 6
-
-# the order of statuses in the ranking, after the members that hang at rest
-STATUS_ORDER = {"solved": 0, "not_at_rest": 1, "falls_apart": 2, "out_of_time": 3}
 
 
 @dataclass(frozen=True)
@@ -47,6 +44,7 @@ class SearchOptions:
     time_limit: float | None = None  # per member
     two_step: bool = False
     inventory: Inventory | None = None
+    smooth: bool = False  # each member also continued from its neighbours' results (members.solve_row)
     jobs: int = field(default_factory=default_jobs)
     executor: str | None = None  # dask://HOST:PORT; None: local processes
 
@@ -65,6 +63,7 @@ class SearchPlan:
             "time_limit": options.time_limit,
             "two_step": options.two_step,
             "inventory": dict(options.inventory.counts) if options.inventory else None,
+            "smooth": options.smooth,
         }
         return fingerprint((s.text for s in self.program.sources.values()), settings)
 
@@ -130,18 +129,9 @@ def _solved(
     """The members' results as they finish, from whichever executor was asked for."""
     if not todo:
         return
-    size = max(1, min(MAX_CHUNK, math.ceil(len(todo) / (options.jobs * CHUNKS_PER_WORKER))))
-    jobs = [
-        Job(
-            program,
-            tuple(todo[i : i + size]),
-            options.seed,
-            options.time_limit,
-            options.two_step,
-            options.inventory,
-        )
-        for i in range(0, len(todo), size)
-    ]
+    chunks = _rows(todo) if options.smooth else _chunks(todo, options.jobs)
+    settings = (options.seed, options.time_limit, options.two_step, options.inventory, options.smooth)
+    jobs = [Job(program, tuple(chunk), *settings) for chunk in chunks]
     with open_executor(options.executor, options.jobs) as executor:
         futures: list[Future[list[MemberResult]]] = [executor.submit(solve_job, job) for job in jobs]
         try:
@@ -152,21 +142,29 @@ def _solved(
                 future.cancel()
 
 
+def _chunks(todo: Sequence[dict[str, str]], workers: int) -> list[Sequence[dict[str, str]]]:
+    size = max(1, min(MAX_CHUNK, math.ceil(len(todo) / (workers * CHUNKS_PER_WORKER))))
+    return [todo[i : i + size] for i in range(0, len(todo), size)]
+
+
+def _rows(todo: Sequence[dict[str, str]]) -> list[list[dict[str, str]]]:
+    """Runs of members that differ only in the last param (consecutive in family
+    order): the neighbours `--smooth` continues from."""
+    rows: list[list[dict[str, str]]] = []
+    for member in todo:
+        if rows and list(rows[-1][-1].values())[:-1] == list(member.values())[:-1]:
+            rows[-1].append(member)
+        else:
+            rows.append([member])
+    return rows
+
+
 def rank(members: Sequence[MemberResult]) -> list[MemberResult]:
     """Members that were solved, best first: those at rest by settled target
     error (position, then rotation), then by number of parts; then the others
     by how far they got."""
     solved = [m for m in members if m.status != REJECTED and m.position_mm is not None]
-    return sorted(solved, key=_rank_key)
-
-
-def _rank_key(member: MemberResult) -> tuple[int, float, float, int]:
-    return (
-        STATUS_ORDER.get(member.status, len(STATUS_ORDER)),
-        member.position_mm if member.position_mm is not None else math.inf,
-        member.rotation_deg if member.rotation_deg is not None else math.inf,
-        member.parts or 0,
-    )
+    return sorted(solved, key=rank_key)
 
 
 @dataclass(frozen=True)

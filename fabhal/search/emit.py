@@ -33,12 +33,25 @@ def emit_member(program: LoadedProgram, member: MemberResult, place: int, direct
     header = (
         f"# Member {member.key} of {display_name(main_path)}, found by `fabhal search` "
         f"(#{place}: {describe(member)}).\n"
-        "# Its params are bound below; solve it with `fabhal solve`.\n\n"
+        "# Its params are bound below; solve it with `fabhal solve`.\n" + _continued_note(member) + "\n"
     )
     directory.mkdir(parents=True, exist_ok=True)
     path = directory / (member_file_name(program, member, place) + ".fhl")
     path.write_text(header + text)
     return path
+
+
+def _continued_note(member: MemberResult) -> str:
+    """What `--smooth` adds: this result came from a neighbour's settings, which to build."""
+    if member.reached_from is None:
+        return ""
+    lines = [
+        f"The search reached this result from the solved settings of its neighbour {member.reached_from}",
+        "(--smooth); solved alone, this program starts afresh and may settle elsewhere.",
+    ]
+    if member.aimed is not None:
+        lines.append(f"Build it with the settings the search found: {member.aimed}")
+    return "".join(f"# {line}\n" for line in lines)
 
 
 def member_file_name(program: LoadedProgram, member: MemberResult, place: int) -> str:

@@ -2,9 +2,10 @@
 
 from __future__ import annotations
 
+import math
 import time
 from collections.abc import Mapping
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from typing import TYPE_CHECKING, Any, cast
 
 from fabhal import api
@@ -13,11 +14,14 @@ from fabhal.inventory import Inventory, over_inventory, parts_used
 from fabhal.load import LoadedProgram
 
 if TYPE_CHECKING:
+    from fabhal.kinematics.frames import Array
     from fabhal.solve import Solution
 
 # api statuses for a member that never reached the solver: the check rejected it
 REJECTED = "rejected"
 CHECK_REJECTS = {"error", "infeasible"}
+# the order of statuses in the ranking, after the members that hang at rest
+STATUS_ORDER = {"solved": 0, "not_at_rest": 1, "falls_apart": 2, "out_of_time": 3}
 
 
 def member_key(bindings: Mapping[str, str]) -> str:
@@ -37,6 +41,9 @@ class MemberResult:
     reason: str | None = None  # rejected: the first error's code (E421, E602, ...)
     example: str | None = None  # rejected: that error as `fabhal check` prints it
     notes: tuple[str, ...] = field(default=())  # codes of the solver's notes (N506 aimed, ...)
+    # --smooth: the neighbour whose solved settings this result continued from (None: its own solve)
+    reached_from: str | None = None
+    aimed: str | None = None  # the solver's N506: the settings to build, in a builder's words
 
     def to_json(self) -> dict[str, Any]:
         data = asdict(self)
@@ -59,34 +66,83 @@ class Job:
     time_limit: float | None = None
     two_step: bool = False
     inventory: Inventory | None = None
+    smooth: bool = False  # the members are one row of the family: see solve_row
 
 
 def solve_job(job: Job) -> list[MemberResult]:
     """Check and solve each member of the chunk in turn (runs in a worker)."""
-    return [solve_member(job, bindings) for bindings in job.members]
+    if job.smooth:
+        return solve_row(job)
+    return [solve_member(job, bindings)[0] for bindings in job.members]
 
 
-def solve_member(job: Job, bindings: dict[str, str]) -> MemberResult:
+def rank_key(member: MemberResult) -> tuple[int, float, float, int]:
+    """The search's order: at rest first, then settled position error, rotation, parts."""
+    return (
+        STATUS_ORDER.get(member.status, len(STATUS_ORDER)),
+        member.position_mm if member.position_mm is not None else math.inf,
+        member.rotation_deg if member.rotation_deg is not None else math.inf,
+        member.parts or 0,
+    )
+
+
+def solve_row(job: Job) -> list[MemberResult]:
+    """`--smooth`: the members of one row of the family (every param the same but
+    the last), each solved on its own, then again from its neighbour's solved
+    configuration, in a sweep up the row and one down, where the neighbour hangs
+    nearer; each keeps the better result (rank_key). A neighbour's settings (where a clip grips, where a hook
+    sits on a rod) are the builder's to reuse, so a member never lands far worse
+    than the one beside it: the family's errors stop jumping."""
+    found = [solve_member(job, bindings) for bindings in job.members]
+    for order, step in ((range(1, len(found)), -1), (range(len(found) - 2, -1, -1), 1)):
+        for k in order:
+            neighbour, start = found[k + step]
+            # only a neighbour that hangs nearer has settings worth trying here
+            if (
+                start is None
+                or found[k][0].status == REJECTED
+                or rank_key(neighbour) >= rank_key(found[k][0])
+            ):
+                continue
+            started = time.perf_counter()
+            tried, x = solve_member(job, job.members[k], start, neighbour.key)
+            spent = found[k][0].time_s + time.perf_counter() - started
+            better = rank_key(tried) < rank_key(found[k][0])
+            kept, kept_x = (tried, x) if better else found[k]
+            found[k] = (replace(kept, time_s=spent), kept_x)
+    return [member for member, _ in found]
+
+
+def solve_member(
+    job: Job, bindings: dict[str, str], start: Array | None = None, reached_from: str | None = None
+) -> tuple[MemberResult, Array | None]:
+    """One member checked and solved (from `start` if given); its result and,
+    when it was solved, its configuration."""
     started = time.perf_counter()
     checked = api.check(job.program, bindings, job.seed)
     first_error = next((d for d in checked.diagnostics if d.is_error), None)
     if first_error is None and job.inventory is not None and checked.flat is not None:
         first_error = over_inventory(job.inventory, checked.flat)
     if first_error is not None:
-        return _rejected(job, bindings, first_error, time.perf_counter() - started)
+        return _rejected(job, bindings, first_error, time.perf_counter() - started), None
     assert checked.flat is not None  # a program without errors has been elaborated
-    result = api.solve(job.program, bindings, job.seed, job.time_limit, two_step=job.two_step)
+    result = api.solve(job.program, bindings, job.seed, job.time_limit, two_step=job.two_step, start=start)
     elapsed = time.perf_counter() - started
     if result.status in CHECK_REJECTS:  # the loops' closure can still reject it (E420, E421)
-        return _rejected(job, bindings, next(d for d in result.diagnostics if d.is_error), elapsed)
+        return _rejected(job, bindings, next(d for d in result.diagnostics if d.is_error), elapsed), None
     parts = sum(parts_used(checked.flat).values())
+    key = member_key(bindings)
     if result.solution is None:
-        return MemberResult(member_key(bindings), bindings, result.status, parts=parts, time_s=elapsed)
-    position, rotation = cast("Solution", result.solution).target_errors()
+        return MemberResult(key, bindings, result.status, parts=parts, time_s=elapsed), None
+    solution = cast("Solution", result.solution)
+    position, rotation = solution.target_errors()
     notes = tuple(sorted({d.code for d in result.diagnostics if not d.is_error}))
-    return MemberResult(
-        member_key(bindings), bindings, result.status, position, rotation, parts, elapsed, notes=notes
-    )
+    aimed = next((d.message for d in result.diagnostics if d.code == "N506"), None)
+    member = MemberResult(
+        key, bindings, result.status, position, rotation, parts, elapsed, notes=notes,
+        reached_from=reached_from, aimed=aimed,
+    )  # fmt: skip
+    return member, solution.x
 
 
 def _rejected(job: Job, bindings: dict[str, str], problem: Diagnostic, elapsed: float) -> MemberResult:

@@ -37,6 +37,7 @@ from fabhal.solve.spacing import Spacing, spacing_constraints, spacing_values, s
 from fabhal.solve.steps import (
     FRICTION,
     FRICTION_SMOOTHING_MM,
+    Fit,
     Problem,
     closure_residual_mm,
     fit_target,
@@ -104,6 +105,10 @@ class SolveOptions:
     # False: the paper's two steps, those choices left where step 1 put them
     aim: bool = True
     progress: Callable[[str], None] | None = None  # told what the solver is doing, for a status line
+    # continue from this configuration of the model instead of fitting the target (step 1): a
+    # neighbouring member of a family, solved, whose settings this member may keep (`fabhal search
+    # --smooth`); settled, aimed and verified from there as any start is
+    start: Array | None = None
 
     def report(self, doing: str) -> None:
         if self.progress is not None:
@@ -182,8 +187,8 @@ def solve(model: Model, options: SolveOptions, loop_start: Array | None = None) 
     if options.time_limit is not None and not np.isfinite(options.deadline):
         options = replace(options, deadline=time.monotonic() + options.time_limit)
     first = _solve_once(model, options, loop_start)
-    if not first.falls or not options.gravity:
-        return first
+    if not first.falls or not options.gravity or options.start is not None:
+        return first  # a continued start is one try: the member's own solve makes the others
     leans_only = all(isinstance(fall, Lean) for fall in first.falls)
     if leans_only:  # a builder turns such a connection over before hanging it again
         turned = _aligned(model, options, first)
@@ -298,9 +303,12 @@ def _solve_once(model: Model, options: SolveOptions, loop_start: Array | None) -
     notes: list[Diagnostic] = []
 
     step1, starts = step_one(model, options.seed, loop_start, options.deadline)
-    options.report("step 1: bringing the target to its frame")
     pairs = contact_pairs(model, options.report)
-    fit = fit_target(step1, goal, starts, pairs)
+    if options.start is not None and len(options.start) == len(model.variables):
+        fit = _continued(step1, options.start)
+    else:
+        options.report("step 1: bringing the target to its frame")
+        fit = fit_target(step1, goal, starts, pairs)
     # the settle's contact springs: with the environment only. Between two movable
     # parts they made the settles crawl (grazing contacts in a loop: the reading
     # nook took 5000 evaluations instead of 300); step 1 keeps the parts apart and
@@ -398,6 +406,12 @@ def _solve_once(model: Model, options: SolveOptions, loop_start: Array | None) -
         settled.forces,
         settled.contacts,
     )
+
+
+def _continued(step1: Problem, start: Array) -> Fit:
+    """A given configuration as step 1's answer: its free DoFs, within their ranges."""
+    low, high = step1.bounds()
+    return Fit(np.clip(start[step1.free], low, high), late=False)
 
 
 def _aimed(

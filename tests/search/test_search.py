@@ -9,6 +9,7 @@ check (E404) before solving: 6 rejected, 6 solved.
 from __future__ import annotations
 
 import json
+from dataclasses import replace
 from functools import cache
 from pathlib import Path
 
@@ -18,7 +19,7 @@ from fabhal import api
 from fabhal.search import SearchOptions, SearchOutcome, best_by, plan, rank, rejections, run
 from fabhal.search.log import LogError
 from fabhal.search.members import REJECTED
-from tests.conftest import DATA
+from tests.conftest import DATA, REPO
 
 FAMILY = DATA / "search" / "mug_family.fhl"
 ONE_PROCESS = SearchOptions(jobs=1)
@@ -148,3 +149,32 @@ def test_when_the_check_rejects_every_member_nothing_is_ranked(tmp_path: Path) -
     outcome = run(search, options, tmp_path / "log.jsonl")
     assert rank(outcome.members) == []
     assert [(r.reason, r.count) for r in rejections(outcome.members)] == [("E404", 6)]
+
+
+def test_smooth_lets_a_member_keep_its_neighbours_settings(tmp_path: Path) -> None:
+    """Clip light, ring M, n = 4, extensions 11.425 and 13.71 mm. Solved alone
+    the two hang 62 and 110 mm from the target: the second member's own solve
+    settles with the clip elsewhere on the bar. Lengthening each of the 4
+    turnbuckles by 2.285 mm lowers the chain by 9.14 mm, so with the first
+    member's settings kept the light moves at most about that far (triangle
+    inequality), plus what settling and aiming change: issue 15's rule allows
+    the chain's change plus 5 mm (14.14 mm). `--smooth` continues the second
+    from the first's result and keeps it because it hangs nearer."""
+    text = (REPO / "programs" / "clip_light_family.fhl").read_text()
+    text = text.replace(
+        "param extension in linspace(0, 45.7, 21) = 43.415", "param extension in [11.425, 13.71]"
+    )
+    program = tmp_path / "two_members.fhl"
+    program.write_text(text)
+    pinned = {"ring": "RingM", "n": "4"}
+    alone = run(plan(program, SearchOptions(jobs=1, pinned=pinned)), SearchOptions(jobs=1, pinned=pinned),
+                tmp_path / "alone.jsonl").members  # fmt: skip
+    options = SearchOptions(jobs=1, pinned=pinned, smooth=True)
+    smooth = run(plan(program, options), options, tmp_path / "smooth.jsonl").members
+    first, second = smooth
+    assert first == replace(alone[0], time_s=first.time_s)  # its neighbour hangs farther: not tried
+    assert alone[1].position_mm - alone[0].position_mm > 14.14  # the jump, solved alone
+    assert second.reached_from == "ring=RingM n=4 extension=11.425"
+    assert second.position_mm < alone[1].position_mm
+    assert abs(second.position_mm - first.position_mm) <= 4 * 2.285 + 5.0
+    assert second.aimed is not None and second.aimed.startswith("aimed:")  # the settings to build
