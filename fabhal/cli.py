@@ -639,7 +639,8 @@ def run_search(args: argparse.Namespace) -> int:
         print("fabhal: search ranks where each member hangs: --no-gravity does not apply", file=sys.stderr)
         return EXIT_USAGE
     try:
-        plan = family.plan(args.file, family.SearchOptions(pinned=dict(args.define)))
+        wanted = family.SearchOptions(pinned=dict(args.define), sample=args.sample, seed=args.seed)
+        plan = family.plan(args.file, wanted)
     except InputError as exc:
         _print_diagnostics(exc.diagnostics, {})
         return EXIT_USAGE
@@ -651,6 +652,8 @@ def run_search(args: argparse.Namespace) -> int:
     if isinstance(options, int):
         return options
     log = args.log or Path(f"{args.file.stem}.search.jsonl")
+    if not args.resume and log.is_file() and log.stat().st_size > 0:
+        print(f"fabhal: starting {log} afresh (--resume would keep the members it has)", file=sys.stderr)
     try:
         outcome = _search_with_progress(plan, options, log, args)
     except (ExecutorError, LogError) as exc:

@@ -249,18 +249,7 @@ class _Elaborator:
                     )
                 ]
             )
-        if not _in_domain(value, decl.domain, candidates):
-            shown = ", ".join(_show(c) for c in candidates[:8]) + (", ..." if len(candidates) > 8 else "")
-            raise FabhalError(
-                [
-                    error(
-                        "E310",
-                        f"{where} is outside the domain of `{decl.name}`",
-                        span,
-                        f"`{decl.name}` takes one of: {shown}",
-                    )
-                ]
-            )
+        _require_in_domain(decl, value, candidates, where, span)
         scope.values[decl.name] = value
 
     def _loop(self, loop: ast.ForLoop, scope: _Scope) -> None:
@@ -655,6 +644,23 @@ def _limit_domain(count: int, span: Span) -> None:
         )
 
 
+def _require_in_domain(
+    decl: ast.ParamDecl, value: Value | str, candidates: list[Value | str], where: str, span: Span
+) -> None:
+    if not _in_domain(value, decl.domain, candidates):
+        shown = ", ".join(_show(c) for c in candidates[:8]) + (", ..." if len(candidates) > 8 else "")
+        raise FabhalError(
+            [
+                error(
+                    "E310",
+                    f"{where} is outside the domain of `{decl.name}`",
+                    span,
+                    f"`{decl.name}` takes one of: {shown}",
+                )
+            ]
+        )
+
+
 def _in_domain(value: Value | str, domain: ast.Domain, candidates: list[Value | str]) -> bool:
     if isinstance(domain, ast.LinspaceDomain) and isinstance(value, float):
         numbers = [float(c) for c in candidates if isinstance(c, float)]
@@ -743,10 +749,11 @@ def _extend_family(
         members.append(dict(chosen))
         return
     decl, rest = decls[0], decls[1:]
-    if decl.name in pinned:
-        values: list[Value | str] = [_parse_binding(pinned[decl.name])]
-    else:
-        values = _domain_values(decl.domain, scope)
+    values = _domain_values(decl.domain, scope)
+    if decl.name in pinned:  # one value, said once if it is outside, not once per member
+        value = _parse_binding(pinned[decl.name])
+        _require_in_domain(decl, value, values, f"-D {decl.name}={pinned[decl.name]}", decl.span)
+        values = [value]
     for value in values:
         scope.values[decl.name] = value
         chosen[decl.name] = pinned.get(decl.name) or binding_text(value)

@@ -132,6 +132,10 @@ def _solved(
     chunks = _rows(todo) if options.smooth else _chunks(todo, options.jobs)
     settings = (options.seed, options.time_limit, options.two_step, options.inventory, options.smooth)
     jobs = [Job(program, tuple(chunk), *settings) for chunk in chunks]
+    if options.executor is None and options.jobs <= 1:  # this process, each result as it comes
+        for job in jobs:
+            yield from solve_job(job)
+        return
     with open_executor(options.executor, options.jobs) as executor:
         futures: list[Future[list[MemberResult]]] = [executor.submit(solve_job, job) for job in jobs]
         try:

@@ -1,18 +1,15 @@
-"""Where the members are solved: worker processes on this machine, a Dask
-cluster, or (one job) this process. All three are `concurrent.futures`
-executors, so the search hands out work and collects it the same way."""
+"""Where the members are solved: worker processes on this machine or a Dask
+cluster. Both are `concurrent.futures` executors, so the search hands out
+work and collects it the same way."""
 
 from __future__ import annotations
 
 import multiprocessing
 import os
-from collections.abc import Callable, Iterator
-from concurrent.futures import Executor, Future, ProcessPoolExecutor
+from collections.abc import Iterator
+from concurrent.futures import Executor, ProcessPoolExecutor
 from contextlib import contextmanager
-from typing import Any, TypeVar
 from urllib.parse import urlparse
-
-T = TypeVar("T")
 
 
 class ExecutorError(Exception):
@@ -21,18 +18,6 @@ class ExecutorError(Exception):
 
 def default_jobs() -> int:
     return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
-
-
-class InProcess(Executor):
-    """Runs each task when it is submitted: one job, no processes to start."""
-
-    def submit(self, fn: Callable[..., T], /, *args: Any, **kwargs: Any) -> Future[T]:
-        future: Future[T] = Future()
-        try:
-            future.set_result(fn(*args, **kwargs))
-        except BaseException as exc:  # handed to the caller through the future, as a pool would
-            future.set_exception(exc)
-        return future
 
 
 def warm_worker() -> None:
@@ -48,13 +33,11 @@ def warm_worker() -> None:
 def open_executor(spec: str | None, jobs: int) -> Iterator[Executor]:
     """`spec` None: `jobs` local worker processes (started fresh, `spawn`, so no
     thread of the caller is copied into them); `dask://HOST:PORT`: the workers
-    of that Dask scheduler."""
+    of that Dask scheduler. (One local job needs no executor: the caller
+    solves in its own process.)"""
     if spec is not None:
         with _dask_executor(spec) as executor:
             yield executor
-        return
-    if jobs <= 1:
-        yield InProcess()
         return
     context = multiprocessing.get_context("spawn")
     pool = ProcessPoolExecutor(max_workers=jobs, mp_context=context, initializer=warm_worker)

@@ -42,11 +42,12 @@ def read_log(path: Path, expected: str) -> dict[str, MemberResult]:
     except json.JSONDecodeError:
         header = None
     if not isinstance(header, dict) or header.get("fabhal_search") != FORMAT:
-        raise LogError(f"{path} is not a `fabhal search` log")
+        raise LogError(f"{path} is not a `fabhal search` log: name another with --log, or leave out --resume")
     if header.get("fingerprint") != expected:
         raise LogError(
             f"{path} was written for {header.get('program', 'another program')} with other contents or "
-            "options (or another FabHaL version): its members would not be this search's"
+            "options (or another FabHaL version): its members would not be this search's; leave out "
+            "--resume to start it over, or name another log with --log"
         )
     done: dict[str, MemberResult] = {}
     for line in lines[1:]:

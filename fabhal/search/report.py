@@ -87,7 +87,7 @@ def describe(member: MemberResult) -> str:
         else ""
     )
     state = "" if member.status == "solved" else f" ({member.status.replace('_', ' ')})"
-    return f"{errors}{state}, {member.parts} parts"
+    return f"{errors}{state}, {member.parts} part{'' if member.parts == 1 else 's'}"
 
 
 def to_json(search: SearchPlan, outcome: SearchOutcome, program: str, jobs: int) -> dict[str, Any]:

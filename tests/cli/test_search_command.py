@@ -198,3 +198,21 @@ def test_a_dask_cluster_solves_the_family_as_local_workers_do(tmp_path: Path) ->
     rows = {r["n"] + r["hook"]: float(r["position_mm"]) for r in csv.DictReader(out.open())}
     alone = {m["bindings"]["n"] + m["bindings"]["hook"]: m["position_mm"] for m in expected["members"]}
     assert rows == alone
+
+
+def test_on_a_terminal_a_progress_bar_counts_the_members(
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str], tmp_path: Path
+) -> None:
+    """The paper's clip-light study, reduced to two members of ring size M
+    (n = 3), as a user at a terminal runs it: the bar counts 2/2 and shows the
+    best error so far; the best member per ring size is reported."""
+    from fabhal.cli import main
+
+    monkeypatch.setattr(sys.stderr, "isatty", lambda: True)
+    family = str(REPO / "programs" / "clip_light_family.fhl")
+    pinned = ["-D", "ring=RingM", "-D", "n=3", "--sample", "2", "-j", "1"]
+    assert main(["search", family, *pinned, "--log", str(tmp_path / "log.jsonl")]) == 0
+    out, err = capsys.readouterr()
+    assert "searching clip_light_family.fhl" in err and "2/2" in err and "best " in err
+    assert out.splitlines()[0].endswith("21 members (ring 1 x n 1 x extension 2) (a sample of 2): solved 2")
+    assert "best with ring=RingM: n=3 extension=" in out

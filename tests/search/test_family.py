@@ -34,6 +34,10 @@ def test_pinned_params_narrow_the_family_and_an_unknown_one_is_named() -> None:
     members, problems = family(program, {"ring": "RingS", "n": "4"})
     assert problems == [] and len(members) == 21
     assert {m["ring"] for m in members} == {"RingS"} and {m["n"] for m in members} == {"4"}
+    members, problems = family(program, {"n": "9"})  # said once, not once per member
+    assert members == [] and [(d.code, d.message) for d in problems] == [
+        ("E310", "-D n=9 is outside the domain of `n`")
+    ]
     members, problems = family(program, {"rings": "RingS"})
     assert members == []
     assert problems[0].code == "E310" and "`param rings`" in problems[0].message
