@@ -186,6 +186,25 @@ program has errors), 2 a file could not be read or written (or an internal error
 """
 
 
+WATCH_EPILOG = """\
+examples:
+  fabhal watch my_hack.fhl                 solve on every save; open the address it prints
+  fabhal watch my_hack.fhl --port 8765     a fixed port
+  fabhal watch family.fhl -D n=3           one member of a family
+
+Edit the program in any editor: each save of it (or of a file it imports)
+checks and solves it again, and the page shows the new result in place
+(the camera stays where you left it), with the status and the target error.
+When a save has errors, the page keeps showing the last result that solved,
+with the errors over it: click one to see its line. A solve still running
+when a newer save arrives is abandoned. The terminal prints one line per
+solve. The server listens on 127.0.0.1 only; Ctrl-C stops it.
+
+exit status: 0 stopped with Ctrl-C, 2 the program could not be read at the
+start, or the port is taken.
+"""
+
+
 GALLERY_EPILOG = """\
 examples:
   fabhal gallery                               every program and sub-assembly, with what it is
@@ -413,6 +432,19 @@ def build_parser() -> argparse.ArgumentParser:
     parts.set_defaults(run=run_parts)
 
     _add_search_command(commands, formatter, gallery)
+
+    watch = commands.add_parser(
+        "watch",
+        help="solve on every save and show the result live in the browser",
+        description="Solve a program again whenever it (or a file it imports) is saved, and show "
+        "each result in a live 3D view at http://127.0.0.1:PORT/.",
+        epilog=WATCH_EPILOG,
+        formatter_class=formatter,
+    )
+    watch.add_argument("file", type=Path, metavar="FILE", help=".fhl program to watch")
+    watch.add_argument("--port", type=int, default=0, help="port of the live view (default: a free one)")
+    _add_solver_options(watch)
+    watch.set_defaults(run=run_watch)
 
     gallery_command = commands.add_parser(
         "gallery",
@@ -812,6 +844,49 @@ def _render_best(plan: Any, best: Any, options: Any, directory: Path) -> None:
                 plan, best, options, directory, lambda i, n: status.update(f"drawing {i} of {n}")
             )
     print(f"drew {len(written) - 1} members and {written[-1]}", file=sys.stderr)
+
+
+def run_watch(args: argparse.Namespace) -> int:
+    import threading
+    import time as clock
+
+    from fabhal.watch.files import watch_files
+    from fabhal.watch.server import LiveServer
+    from fabhal.watch.session import LiveResult, LiveSession, SolveSettings
+
+    if not args.file.is_file():
+        print(f"fabhal: cannot watch {args.file}: no such file", file=sys.stderr)
+        return EXIT_USAGE
+    if args.no_gravity:
+        print("fabhal: watch shows where the hack hangs: --no-gravity does not apply", file=sys.stderr)
+        return EXIT_USAGE
+
+    def report(result: LiveResult) -> None:
+        print(f"{clock.strftime('%H:%M:%S')} {result.summary} ({result.elapsed_s:.2f} s)", flush=True)
+
+    settings = SolveSettings(dict(args.define), args.seed, args.time_limit, args.two_step)
+    session = LiveSession(args.file, settings, report)
+    try:
+        server = LiveServer(args.port, session, args.file.name)
+    except OSError as exc:
+        print(f"fabhal: cannot serve on 127.0.0.1:{args.port}: {exc.strerror}", file=sys.stderr)
+        return EXIT_USAGE
+    stop = threading.Event()
+    watcher = threading.Thread(
+        target=watch_files, args=(lambda: session.dependencies, session.changed, stop), daemon=True
+    )
+    print(f"watching {args.file} and its imports; live view at {server.url} (Ctrl-C stops)", flush=True)
+    session.start()
+    watcher.start()
+    try:
+        server.serve_forever()
+    except KeyboardInterrupt:
+        pass
+    finally:
+        stop.set()
+        session.stop()
+        server.server_close()
+    return EXIT_OK
 
 
 def run_bench(args: argparse.Namespace) -> int:

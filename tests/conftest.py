@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import json
 import os
+import shutil
+import subprocess
 from functools import cache
 from pathlib import Path
 from typing import Any
@@ -41,3 +43,23 @@ def spec_json(name: str) -> Any:
 @pytest.fixture
 def repo() -> Path:
     return REPO
+
+
+@pytest.fixture(scope="session")
+def chromium() -> str:
+    """Debian's Chromium, installed here if missing (CI machines start without it)."""
+    found = shutil.which("chromium")
+    if found:
+        return found
+    apt = shutil.which("apt-get")
+    if apt is None or os.geteuid() != 0:
+        pytest.skip("Chromium is not installed and cannot be: needs apt-get as root")
+    for command in (
+        [apt, "install", "-y", "-q", "chromium"],
+        [apt, "update", "-q"],
+        [apt, "install", "-y", "-q", "chromium"],
+    ):
+        subprocess.run(command, capture_output=True, timeout=900, check=False)
+        if shutil.which("chromium"):
+            return str(shutil.which("chromium"))
+    pytest.skip("Chromium could not be installed from the system packages (apt-get install chromium failed)")

@@ -32,6 +32,7 @@ ORDER = [
     "render",
     "api",
     "search",
+    "watch",
     "bench",
     "cli",
 ]

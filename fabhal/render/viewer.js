@@ -26,13 +26,16 @@
     return sides;
   }
 
-  const data = JSON.parse(document.getElementById("scene-data").textContent);
-  const summary = data.summary;
+  let data = JSON.parse(document.getElementById("scene-data").textContent);
+  let summary = data.summary;
   const canvas = document.getElementById("canvas");
   const tip = document.getElementById("tip");
   buildPanel();
+  document.body.dataset.status = summary.status;
 
   const gl = canvas.getContext("webgl2", { antialias: true, preserveDrawingBuffer: true });
+  // `fabhal watch` replaces the scene in place (the camera stays where the user left it)
+  window.fabhalViewer = { load: (next) => { data = next; summary = next.summary; buildPanel(); document.body.dataset.status = summary.status; } };
   if (!gl) {
     // a visible message, not a blank page; the panel still shows the result
     const message = document.createElement("div");
@@ -74,26 +77,48 @@
                   light: uniform("light"), picking: uniform("picking") };
 
   // geometry: one vertex array per item, plus the target axes as lines
-  const low = [Infinity, Infinity, Infinity], high = [-Infinity, -Infinity, -Infinity];
-  const meshes = data.items.map((item, index) => {
-    const positions = decode(item.positions, Float32Array);
-    const indices = decode(item.indices, Uint32Array);
-    if (item.role !== "environment") {
-      for (let i = 0; i < positions.length; i += 3) {
-        for (let k = 0; k < 3; k++) { low[k] = Math.min(low[k], positions[i + k]); high[k] = Math.max(high[k], positions[i + k]); }
-      }
-    }
-    return { item, index, vao: upload(positions, indices), count: indices.length };
-  });
-  const centre = low.map((v, k) => (v + high[k]) / 2);
-  const radius = Math.max(1, Math.hypot(high[0] - low[0], high[1] - low[1], high[2] - low[2]) / 2);
-  const axes = axisLines();
-
+  let meshes = [], axes = [], radius = 1, centre = [0, 0, 0];
+  let framed = loadGeometry();  // false until a scene with parts has placed the camera
   const camera = { yaw: -0.95, pitch: 0.45, distance: radius * 3.2, target: centre.slice() };
   let hovered = -1;
   installControls();
   draw();
   document.body.dataset.rendered = String(coveredPixels());
+  window.fabhalViewer.load = (next) => {
+    data = next;
+    summary = next.summary;
+    buildPanel();
+    if (loadGeometry() && !framed) {
+      camera.distance = radius * 3.2;
+      camera.target = centre.slice();
+      framed = true;
+    }
+    hovered = -1;
+    draw();
+    document.body.dataset.status = summary.status;
+    document.body.dataset.rendered = String(coveredPixels());
+  };
+
+  function loadGeometry() {
+    for (const old of [...meshes, ...axes]) for (const buffer of old.buffers) gl.deleteBuffer(buffer);
+    for (const old of [...meshes, ...axes]) gl.deleteVertexArray(old.vao);
+    const low = [Infinity, Infinity, Infinity], high = [-Infinity, -Infinity, -Infinity];
+    meshes = data.items.map((item, index) => {
+      const positions = decode(item.positions, Float32Array);
+      const indices = decode(item.indices, Uint32Array);
+      if (item.role !== "environment") {
+        for (let i = 0; i < positions.length; i += 3) {
+          for (let k = 0; k < 3; k++) { low[k] = Math.min(low[k], positions[i + k]); high[k] = Math.max(high[k], positions[i + k]); }
+        }
+      }
+      return { item, index, ...upload(positions, indices), count: indices.length };
+    });
+    const empty = !(low[0] <= high[0]);  // nothing but environments (or nothing yet)
+    centre = empty ? [0, 0, 0] : low.map((v, k) => (v + high[k]) / 2);
+    radius = empty ? 1 : Math.max(1, Math.hypot(high[0] - low[0], high[1] - low[1], high[2] - low[2]) / 2);
+    axes = axisLines();
+    return !empty;
+  }
 
   function link(vertexSource, fragmentSource) {
     const compile = (type, source) => {
@@ -124,7 +149,7 @@
     gl.bindBuffer(gl.ELEMENT_ARRAY_BUFFER, elements);
     gl.bufferData(gl.ELEMENT_ARRAY_BUFFER, indices, gl.STATIC_DRAW);
     gl.bindVertexArray(null);
-    return vao;
+    return { vao, buffers: [buffer, elements] };
   }
 
   function axisLines() {
@@ -143,7 +168,7 @@
         gl.enableVertexAttribArray(0);
         gl.vertexAttribPointer(0, 3, gl.FLOAT, false, 0, 0);
         gl.bindVertexArray(null);
-        lines.push({ vao, color: [[0.86, 0.16, 0.16], [0.16, 0.63, 0.16], [0.16, 0.31, 0.86]][axis] });
+        lines.push({ vao, buffers: [buffer], color: [[0.86, 0.16, 0.16], [0.16, 0.63, 0.16], [0.16, 0.31, 0.86]][axis] });
       }
     }
     return lines;
@@ -282,6 +307,9 @@
 
   function buildPanel() {
     const panel = document.getElementById("panel");
+    const live = document.getElementById("live");  // `fabhal watch`: its own lines stay first
+    panel.replaceChildren();
+    if (live) panel.appendChild(live);
     const add = (tag, text, className) => {
       const node = document.createElement(tag);
       if (text !== undefined) node.textContent = text;

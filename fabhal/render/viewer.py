@@ -21,7 +21,9 @@ import numpy as np
 from fabhal.render.scene import Scene
 
 
-def viewer_html(scene: Scene, summary: dict[str, Any]) -> str:
+def scene_payload(scene: Scene, summary: dict[str, Any]) -> dict[str, Any]:
+    """What viewer.js draws: the meshes in world coordinates, the target frames,
+    the connection tree and the solve summary (JSON-ready)."""
     items = [
         {
             "name": item.name,
@@ -33,7 +35,7 @@ def viewer_html(scene: Scene, summary: dict[str, Any]) -> str:
         }
         for item in scene.items
     ]
-    data = {
+    return {
         "title": scene.title,
         "items": items,
         "requested": np.round(scene.requested, 6).tolist(),
@@ -41,10 +43,21 @@ def viewer_html(scene: Scene, summary: dict[str, Any]) -> str:
         "tree": [{"depth": depth, "line": line} for depth, line in scene.tree],
         "summary": summary,
     }
+
+
+def viewer_html(scene: Scene, summary: dict[str, Any]) -> str:
+    return page_html(scene_payload(scene, summary))
+
+
+def page_html(payload: dict[str, Any], live: str = "", live_script: str = "") -> str:
+    """The page around a payload; `fabhal watch` adds its panel lines (`live`,
+    HTML) and the script that takes new payloads from the server."""
     script = resources.files("fabhal.render").joinpath("viewer.js").read_text(encoding="utf-8")
     # "</" cannot appear inside a <script> element: escape it in the embedded JSON
-    payload = json.dumps(data, separators=(",", ":")).replace("</", "<\\/")
-    return _PAGE.format(title=html.escape(scene.title), payload=payload, script=script)
+    data = json.dumps(payload, separators=(",", ":")).replace("</", "<\\/")
+    return _PAGE.format(
+        title=html.escape(payload["title"]), payload=data, script=script, live=live, live_script=live_script
+    )
 
 
 def _b64(array: np.ndarray) -> str:
@@ -80,11 +93,12 @@ _PAGE = """<!DOCTYPE html>
 <div id="view"><canvas id="canvas"></canvas><div id="tip"></div>
 <div id="help">drag: orbit &middot; right-drag or shift-drag: pan &middot;
   wheel: zoom &middot; hover: part name</div></div>
-<div id="panel"></div>
+<div id="panel">{live}</div>
 <script type="application/json" id="scene-data">{payload}</script>
 <script>
 {script}
 </script>
+{live_script}
 </body>
 </html>
 """

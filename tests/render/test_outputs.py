@@ -3,9 +3,7 @@
 from __future__ import annotations
 
 import io
-import os
 import re
-import shutil
 import subprocess
 from pathlib import Path
 from typing import Any
@@ -170,26 +168,6 @@ CHROMIUM_FLAGS = [
     "--virtual-time-budget=8000",
     "--window-size=1000,700",
 ]
-
-
-@pytest.fixture(scope="session")
-def chromium() -> str:
-    """Debian's Chromium, installed here if missing (CI machines start without it)."""
-    found = shutil.which("chromium")
-    if found:
-        return found
-    apt = shutil.which("apt-get")
-    if apt is None or os.geteuid() != 0:
-        pytest.skip("Chromium is not installed and cannot be: needs apt-get as root")
-    for command in (
-        [apt, "install", "-y", "-q", "chromium"],
-        [apt, "update", "-q"],
-        [apt, "install", "-y", "-q", "chromium"],
-    ):
-        subprocess.run(command, capture_output=True, timeout=900, check=False)
-        if shutil.which("chromium"):
-            return str(shutil.which("chromium"))
-    pytest.skip("Chromium could not be installed from the system packages (apt-get install chromium failed)")
 
 
 def test_html_viewer_renders_the_scene_in_headless_chromium(mug: Any, tmp_path: Path, chromium: str) -> None:
