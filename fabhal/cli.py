@@ -78,6 +78,7 @@ examples:
   fabhal solve -o result.json {gallery}/demo.fhl     ... or in a file
   fabhal solve --no-gravity my_hack.fhl             only step 1: closest to the target
   fabhal solve --two-step {gallery}/demo.fhl        the paper's two steps, without aiming
+  fabhal solve --dofs {gallery}/demo.fhl            every degree of freedom: range, where it settled
   fabhal solve -D n=3 --seed 7 family.fhl           bind a param; another random start
   fabhal solve {gallery}/mug_hanger.fhl --render mug.png   ... and draw it (see `render`)
 
@@ -371,6 +372,12 @@ def build_parser() -> argparse.ArgumentParser:
     solve.add_argument(
         "-o", "--output", type=Path, metavar="FILE.json", help="write the JSON result to a file"
     )
+    solve.add_argument(
+        "--dofs",
+        action="store_true",
+        help="also list the design's degrees of freedom: each one's range, where it settled (as a builder "
+        "would set it) and whether the builder sets it once or gravity settles it",
+    )
     _add_solver_options(solve)
     solve.add_argument(
         "--render",
@@ -512,7 +519,12 @@ def _add_search_command(commands: Any, formatter: Any, gallery: str) -> None:
 
 def _print_diagnostics(diagnostics: Sequence[Diagnostic], sources: dict[str, SourceFile]) -> None:
     if diagnostics:
-        print(render_all(diagnostics, sources), file=sys.stderr)
+        text = render_all(diagnostics, sources)
+        if sys.stderr.isatty() and "NO_COLOR" not in os.environ:  # https://no-color.org
+            from fabhal.syntax.lexer import colour_source_lines
+
+            text = colour_source_lines(text)
+        print(text, file=sys.stderr)
 
 
 def run_check(args: argparse.Namespace) -> int:
@@ -564,6 +576,8 @@ def run_solve(args: argparse.Namespace) -> int:
         console = _console()
         for renderable in report.renderables(result, name):
             console.print(renderable)
+        if args.dofs and result.solution is not None:
+            console.print(report.dofs_table(result.solution))
     return _finish(result, args.render, args, data)
 
 

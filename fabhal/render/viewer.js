@@ -354,6 +354,18 @@
       }
       list.appendChild(item);
     }
+    add("h2", "degrees of freedom").style.fontSize = "15px";
+    const dofs = add("ul");
+    dofs.id = "dofs";
+    for (const dof of summary.dofs || []) {
+      const item = document.createElement("li");
+      const code = document.createElement("code");
+      code.textContent = dof.name;
+      item.appendChild(code);
+      const range = dof.turns_freely ? "turns freely" : `${dof.range[0]} .. ${dof.range[1]}`;
+      item.appendChild(document.createTextNode(`: ${dof.as_built} (${range}; ${dof.role}${dof.at_end ? ", at an end" : ""})`));
+      dofs.appendChild(item);
+    }
     add("h2", "parts").style.fontSize = "15px";
     const parts = add("ul");
     for (const [name, part] of Object.entries(summary.parts || {})) {

@@ -12,7 +12,8 @@ from fabhal.kinematics.frames import matrix_euler
 from fabhal.model import Model
 from fabhal.primitives import Dof
 from fabhal.solve import Solution
-from fabhal.solve.aim import builder_settings
+from fabhal.solve.aim import builder_settings, setting_text
+from fabhal.solve.steps import mm_per_unit
 
 if TYPE_CHECKING:
     from rich.console import RenderableType
@@ -128,10 +129,41 @@ def _solution(solution: Solution) -> dict[str, Any]:
         "target": target,
         "parts": parts,
         "connections": connections,
+        "dofs": dof_rows(solution),
         "contacts": contacts,
         "energy": round(solution.energy, 6),
         "residual": float(f"{solution.residual:.3g}"),
     }
+
+
+def dof_rows(solution: Solution) -> list[dict[str, Any]]:
+    """Every degree of freedom of the design: its connection, range, where it
+    settled (as a builder would set it) and what decides it: `set once` (a
+    clip's grip, a `fixed` connection, a place friction holds: the builder's
+    setting, aimed) or `settles` (gravity moves it); `at_end`: resting on an
+    end of its range."""
+    model = solution.model
+    settings, resting, lengths = builder_settings(model), set(solution.at_bound), mm_per_unit(model)
+    rows = []
+    for i, variable in enumerate(model.variables):
+        dof = variable.dof
+        value = _within_range(dof, float(solution.x[i]))
+        if dof.periodic and round(value) >= dof.high:  # 359.9 degrees round is 0
+            value = dof.low
+        connection = model.joints[variable.joint].connection
+        rows.append(
+            {
+                "name": variable.name,
+                "connection": f"{connection.a} -- {connection.b}",
+                "range": [dof.low, dof.high],
+                "turns_freely": dof.periodic,
+                "value": round(value, 6) + 0.0,
+                "as_built": setting_text(model, i, value, float(lengths[i])),
+                "role": "set once" if i in settings else "settles",
+                "at_end": i in resting,
+            }
+        )
+    return rows
 
 
 # ---------------------------------------------------------------- for people
@@ -199,6 +231,21 @@ def renderables(result: SolveOutcome, program: str) -> list[RenderableType]:
             f"  ({float(np.linalg.norm(contact.force)):.2f} N)\n"
         )
     return [head, table, chain]
+
+
+def dofs_table(solution: Solution) -> RenderableType:
+    """`fabhal solve --dofs`: the design's degrees of freedom, one row each."""
+    from rich.table import Table
+
+    table = Table(title="degrees of freedom (angles in degrees, t along a primitive from 0 to 1)")
+    for column in ("connection", "dof", "range", "settled", "as built", "decided by"):
+        table.add_column(column)
+    for row in dof_rows(solution):
+        low, high = row["range"]
+        extent = "turns freely" if row["turns_freely"] else f"{low:g} .. {high:g}"
+        role = row["role"] + (", at an end" if row["at_end"] else "")
+        table.add_row(row["connection"], row["name"], extent, f"{row['value']:.3g}", row["as_built"], role)
+    return table
 
 
 def hanging_lines(model: Model, forces: np.ndarray | None = None) -> list[tuple[int, str]]:

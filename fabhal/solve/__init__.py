@@ -491,7 +491,7 @@ def _choice_note(
         by_connection: dict[int, list[str]] = {}
         for i in dofs:
             by_connection.setdefault(model.variables[i].joint, []).append(
-                _choice_text(model, i, after[i], lengths[i])
+                aim_mod.setting_text(model, i, after[i], lengths[i])
             )
         return "; ".join(
             f"`{model.joints[j].connection.a} -- {model.joints[j].connection.b}` {', '.join(texts)}"
@@ -511,24 +511,6 @@ def _choice_note(
         + "these are set when building and stay put (a clip's grip, a `fixed` connection, where "
         "friction holds a part on a rod): build them so; --two-step keeps step 1's",
     )
-
-
-def _choice_text(model: Model, i: int, value: float, length: float) -> str:
-    """A chosen DoF's value as a builder sets it: along a primitive in mm; a
-    tilt (a lean) from upright, a turn about a rod or round a ring, in degrees."""
-    variable = model.variables[i]
-    dof = variable.dof
-    where = variable.name.rsplit(".", 1)[0]  # part.primitive
-    if not dof.periodic and dof.high <= 1.0:
-        return f"{value * length:.0f} mm along {where} (of {length:.0f})"
-    kind = model.side_of(i).primitive.kind
-    if dof.lean:
-        return f"tilted {value - dof.default:+.0f} degrees on {where}"
-    if dof.name == "theta" and kind in ("hook", "hole"):  # where along its arc or round its ring
-        return f"at {value:.0f} degrees round {where}"
-    if dof.periodic:  # a rod's spin, a tube's theta, a surface's s
-        return f"turned {value:.0f} degrees about {where}"
-    return f"{dof.name} {value:.0f} degrees on {where}"
 
 
 @dataclass(frozen=True)

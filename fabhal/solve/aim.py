@@ -145,3 +145,22 @@ def aim(
 
 
 _stalled = partial(residual_stalled, steps=AIM_STALL_STEPS, gain_mm=AIM_GAIN_MM)
+
+
+def setting_text(model: Model, i: int, value: float, length: float) -> str:
+    """A DoF's value as a builder sets it: along a primitive in mm (`length`: mm
+    per unit, steps.mm_per_unit); a tilt (a lean) from upright, a turn about a
+    rod or round a ring, in degrees."""
+    variable = model.variables[i]
+    dof = variable.dof
+    where = variable.name.rsplit(".", 1)[0]  # part.primitive
+    if not dof.periodic and dof.high <= 1.0:
+        return f"{value * length:.0f} mm along {where} (of {length:.0f})"
+    kind = model.side_of(i).primitive.kind
+    if dof.lean:
+        return f"tilted {round(value - dof.default):+d} degrees on {where}"  # never "-0"
+    if dof.name == "theta" and kind in ("hook", "hole"):  # where along its arc or round its ring
+        return f"at {value:.0f} degrees round {where}"
+    if dof.periodic:  # a rod's spin, a tube's theta, a surface's s
+        return f"turned {value:.0f} degrees about {where}"
+    return f"{dof.name} {value:.0f} degrees on {where}"
