@@ -206,6 +206,21 @@ start, or the port is taken.
 """
 
 
+LSP_EPILOG = """\
+Point your editor's LSP client at the command `fabhal lsp` for files ending
+in .fhl. It reports `fabhal check`'s diagnostics as you type (the same codes,
+spans and help), shows a part type's primitives, DoFs and mass on hover (and
+a primitive's, on `s1.hook2`), completes part types, keywords and, after
+`name.`, that part's primitives, jumps to the definition of a part type, an
+assembly, a name or an imported file, and lists the program's symbols.
+
+Neovim:   vim.lsp.start({ name = "fabhal", cmd = { "fabhal", "lsp" } })
+Helix:    [language-server.fabhal] command = "fabhal", args = ["lsp"]
+VS Code:  editors/vscode/ highlights .fhl; any generic LSP client extension
+          can run `fabhal lsp`.
+"""
+
+
 GALLERY_EPILOG = """\
 examples:
   fabhal gallery                               every program and sub-assembly, with what it is
@@ -452,6 +467,16 @@ def build_parser() -> argparse.ArgumentParser:
     watch.add_argument("--port", type=int, default=0, help="port of the live view (default: a free one)")
     _add_solver_options(watch)
     watch.set_defaults(run=run_watch)
+
+    lsp = commands.add_parser(
+        "lsp",
+        help="the language server for editors (stdio; needs `pip install 'fabhal[lsp]'`)",
+        description="Run FabHaL's language server on stdin/stdout: diagnostics as you type, hover, "
+        "completion, go-to-definition and document symbols for .fhl files.",
+        epilog=LSP_EPILOG,
+        formatter_class=formatter,
+    )
+    lsp.set_defaults(run=run_lsp)
 
     gallery_command = commands.add_parser(
         "gallery",
@@ -900,6 +925,16 @@ def run_watch(args: argparse.Namespace) -> int:
         stop.set()
         session.stop()
         server.server_close()
+    return EXIT_OK
+
+
+def run_lsp(args: argparse.Namespace) -> int:
+    try:
+        from fabhal.lsp.server import main as serve
+    except ImportError:
+        print("fabhal: the language server needs pygls: pip install 'fabhal[lsp]'", file=sys.stderr)
+        return EXIT_USAGE
+    serve()
     return EXIT_OK
 
 

@@ -63,7 +63,8 @@ def read_source(path: Path) -> SourceFile:
 
 
 class _Loader:
-    def __init__(self) -> None:
+    def __init__(self, unsaved: dict[Path, str] | None = None) -> None:
+        self.unsaved = unsaved or {}  # an editor's text of a file, in place of what is on disk
         self.modules: dict[Path, ast.Module] = {}
         self.sources: dict[str, SourceFile] = {}
         self.paths: dict[str, Path] = {}
@@ -73,7 +74,9 @@ class _Loader:
         path = path.resolve()
         if path in self.modules:
             return self.modules[path]
-        source = read_source(path)
+        source = (
+            SourceFile(display_name(path), self.unsaved[path]) if path in self.unsaved else read_source(path)
+        )
         self.sources[source.name] = source
         self.paths[source.name] = path
         try:
@@ -119,11 +122,13 @@ class _Loader:
         )
 
 
-def load_program(path: Path | None) -> LoadedProgram:
+def load_program(path: Path | None, text: str | None = None) -> LoadedProgram:
     """Parse `path` (if any), its imports and the standard library; raises
     InputError if `path` itself cannot be read. Syntax errors come back as
-    diagnostics."""
-    loader = _Loader()
+    diagnostics. `text`: the program as an editor holds it, unsaved (its
+    imports are still found from `path`'s folder)."""
+    unsaved = {path.resolve(): text} if path is not None and text is not None else {}
+    loader = _Loader(unsaved)
     for library_file in sorted(resources.stdlib_dir().glob("*.fhl")):
         loader.load(library_file)
     main = loader.load(path) if path is not None else None

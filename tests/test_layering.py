@@ -33,6 +33,7 @@ ORDER = [
     "api",
     "search",
     "watch",
+    "lsp",
     "bench",
     "cli",
 ]
