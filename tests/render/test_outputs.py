@@ -189,6 +189,8 @@ def test_html_viewer_renders_the_scene_in_headless_chromium(mug: Any, tmp_path: 
     assert int(attributes.get("rendered", "0")) > 0.05 * 660 * 700
     assert "mug.hook -- s3.hook2" in run.stdout  # the panel's connections...
     assert "mug.hook  &lt;-  s3.hook2" in run.stdout  # ...and the tree of what holds what
+    # ...and the design's degrees of freedom, as a builder would set them (`fabhal solve --dofs`)
+    assert 'id="dofs"' in run.stdout and "s3.hook2.theta</code>: at " in run.stdout
 
 
 # ---------------------------------------------------------------- the commands

@@ -120,3 +120,33 @@ def test_a_newer_save_abandons_the_solve_it_supersedes(tmp_path: Path) -> None:
     session.stop()
     assert result is not None and result.generation == 3 and result.status == "solved"
     assert len(published) == 1  # versions 1 and 2 were abandoned at their next stage
+
+
+def test_only_saves_of_the_programs_own_files_count(tmp_path: Path) -> None:
+    """The folder is watched (editors save by renaming), but a save of a file
+    the program does not read is not a change; a rename over the program is."""
+    import threading
+
+    from fabhal.watch.files import watch_files
+
+    program, other = tmp_path / "mug.fhl", tmp_path / "notes.fhl"
+    program.write_text("# a program\n")
+    changes: list[float] = []
+    stop = threading.Event()
+    watcher = threading.Thread(
+        target=watch_files, args=(lambda: frozenset({program.resolve()}), lambda: changes.append(1.0), stop)
+    )
+    watcher.start()
+    try:
+        time.sleep(0.5)  # the watcher is listening
+        other.write_text("# not read by the program\n")
+        time.sleep(0.5)
+        assert changes == []
+        edit(program, "a program", "the program")
+        deadline = time.monotonic() + 5
+        while not changes and time.monotonic() < deadline:
+            time.sleep(0.05)
+        assert changes == [1.0]
+    finally:
+        stop.set()
+        watcher.join(timeout=5)
