@@ -51,3 +51,21 @@ def test_diagnostics_on_a_terminal_colour_only_the_quoted_source() -> None:
     assert coloured.splitlines()[0] == rendered.splitlines()[0]  # the message itself is left alone
     assert "\x1b[" in coloured.splitlines()[1] and coloured.splitlines()[1].startswith("1 | ")
     assert coloured.splitlines()[2] == rendered.splitlines()[2]
+
+
+def test_every_fhl_block_of_the_docs_lexes_without_an_error_token() -> None:
+    """The docs name their examples ```fhl, the lexer's alias: a Pygments-based
+    renderer (MkDocs, Sphinx) highlights them with it, so none may confuse it."""
+    import re
+
+    from tests.conftest import REPO
+
+    # docs/errors.md is left out: its examples are wrong on purpose (a stray `;`, an open string)
+    documents = [
+        REPO / "README.md",
+        *sorted(p for p in (REPO / "docs").glob("*.md") if p.name != "errors.md"),
+    ]
+    blocks = [b for d in documents for b in re.findall(r"```fhl\n(.*?)```", d.read_text(), re.S)]
+    assert len(blocks) > 10
+    lexer = get_lexer_by_name("fhl")
+    assert [b for b in blocks if any(kind is Error for kind, _ in lexer.get_tokens(b))] == []
