@@ -206,6 +206,31 @@ start, or the port is taken.
 """
 
 
+DESIGN_EPILOG = """\
+examples:
+  fabhal design spec.fhl --inventory mine.toml                 the best designs from what you own
+  fabhal design spec.fhl --inventory mine.toml --emit designs/ --render designs/
+  fabhal design spec.fhl --inventory mine.toml --max-parts 3 --budget 20 --time-limit 30
+
+The spec is a program with the environment(s) and the target (the object
+to hang, with `target ... at ...`) and no connections; the inventory is a
+TOML file, one `PartType = count` line per part you own (the format of
+`fabhal search --inventory`). FabHaL grows every design those parts allow:
+chains that hang the target from one support, and two-point hangs (a part
+with three or more connectors, e.g. a hanger, hung from two supports by two
+chains). Each connection is tried against the checker's rules as the design
+grows (E401, E402, E404), a two-point hang whose chains cannot span its
+supports is dropped (E420), and so is a chain too short to reach. The most
+promising (--budget, by where chains hanging straight down would leave the
+target) are solved in parallel and ranked by settled target error, then by
+number of parts. --emit writes each as a program (`fabhal solve` reproduces
+it exactly); --render draws them and a contact sheet.
+
+exit status: 0 a design settles within --tolerance of the target, 1 none
+does (the closest is reported), 2 a file could not be read.
+"""
+
+
 LSP_EPILOG = """\
 Point your editor's LSP client at the command `fabhal lsp` for files ending
 in .fhl. It reports `fabhal check`'s diagnostics as you type (the same codes,
@@ -349,6 +374,12 @@ def _gallery_display() -> str:
     return display_name(gallery_dir())
 
 
+def default_jobs() -> int:
+    from fabhal.search.executors import default_jobs as cores
+
+    return cores()
+
+
 def build_parser() -> argparse.ArgumentParser:
     formatter = argparse.RawDescriptionHelpFormatter
     gallery = _gallery_display()
@@ -468,6 +499,45 @@ def build_parser() -> argparse.ArgumentParser:
     _add_solver_options(watch)
     watch.set_defaults(run=run_watch)
 
+    designer = commands.add_parser(
+        "design",
+        help="find designs that hang the target, from the parts you own",
+        description="Enumerate the designs an inventory allows for a spec (environments and a target), "
+        "solve the most promising in parallel and rank them by where the target settles.",
+        epilog=DESIGN_EPILOG,
+        formatter_class=formatter,
+    )
+    designer.add_argument("file", type=Path, metavar="SPEC", help=".fhl spec: environments and a target")
+    designer.add_argument(
+        "--inventory",
+        type=Path,
+        required=True,
+        metavar="FILE.toml",
+        help="the parts you own: `PartType = count`",
+    )
+    designer.add_argument("--max-parts", type=_positive, default=4, metavar="N", help="parts per design (4)")
+    designer.add_argument(
+        "--budget", type=_positive, default=60, metavar="N", help="designs solved at most (60)"
+    )
+    designer.add_argument(
+        "--tolerance", type=float, default=10.0, metavar="MM", help="near enough to the target, mm (10)"
+    )
+    designer.add_argument(
+        "--time-limit", type=_seconds, metavar="SECONDS", help="stop solving after this long (default: none)"
+    )
+    designer.add_argument(
+        "--top", type=_positive, default=5, metavar="K", help="show, emit, render the best K (5)"
+    )
+    designer.add_argument(
+        "-j", "--jobs", type=_positive, default=default_jobs(), help="worker processes (default: all cores)"
+    )
+    designer.add_argument("--executor", metavar="dask://HOST:PORT", help="solve on a Dask cluster instead")
+    designer.add_argument("--seed", type=int, default=0, help="seed for the random starts (default 0)")
+    designer.add_argument("--json", action="store_true", help="print every design and its result as JSON")
+    designer.add_argument("--emit", type=Path, metavar="DIR", help="write the best K as .fhl programs")
+    designer.add_argument("--render", type=Path, metavar="DIR", help="draw the best K and a contact sheet")
+    designer.set_defaults(run=run_design)
+
     lsp = commands.add_parser(
         "lsp",
         help="the language server for editors (stdio; needs `pip install 'fabhal[lsp]'`)",
@@ -498,7 +568,6 @@ def _positive(text: str) -> int:
 
 
 def _add_search_command(commands: Any, formatter: Any, gallery: str) -> None:
-    from fabhal.search.executors import default_jobs
 
     search = commands.add_parser(
         "search",
@@ -926,6 +995,62 @@ def run_watch(args: argparse.Namespace) -> int:
         session.stop()
         server.server_close()
     return EXIT_OK
+
+
+def run_design(args: argparse.Namespace) -> int:
+    from fabhal import api
+    from fabhal import design as designer
+    from fabhal.inventory import InventoryError, read_inventory
+    from fabhal.load import InputError
+    from fabhal.search.executors import ExecutorError
+
+    try:
+        inventory = read_inventory(args.inventory, api.part_library().library)
+    except InventoryError as exc:
+        _print_diagnostics(exc.diagnostics, {exc.source.name: exc.source} if exc.source else {})
+        return EXIT_USAGE
+    options = designer.DesignOptions(
+        args.max_parts, args.budget, args.tolerance, args.seed, args.time_limit, args.jobs, args.executor
+    )
+    try:
+        plan = designer.plan(args.file, inventory, options)
+    except InputError as exc:
+        _print_diagnostics(exc.diagnostics, {})
+        return EXIT_USAGE
+    if plan.diagnostics:
+        _print_diagnostics(plan.diagnostics, {})
+        return EXIT_DIAGNOSTICS
+    try:
+        outcome = _design_with_progress(plan, options, args)
+    except ExecutorError as exc:
+        print(f"fabhal: {exc}", file=sys.stderr)
+        return EXIT_USAGE
+    from fabhal.design import report as design_report
+
+    if args.json:
+        print(json.dumps(design_report.to_json(plan, outcome, options), indent=2))
+    else:
+        design_report.print_summary(plan, outcome, options, args.top, _console())
+    try:
+        design_report.write_outputs(plan, outcome, args.top, args.emit, args.render, options)
+    except OSError as exc:
+        print(f"fabhal: cannot write {exc.filename or 'the output'}: {exc.strerror}", file=sys.stderr)
+        return EXIT_USAGE
+    return EXIT_OK if design_report.reaches(outcome, options) else EXIT_DIAGNOSTICS
+
+
+def _design_with_progress(plan: Any, options: Any, args: argparse.Namespace) -> Any:
+    from fabhal import design as designer
+
+    if not sys.stderr.isatty():
+        return designer.run(plan, options)
+    from rich.console import Console
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
+
+    columns = (TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TimeRemainingColumn())
+    with Progress(*columns, console=Console(stderr=True)) as bar:
+        task = bar.add_task(f"solving designs for {args.file.name}", total=len(plan.candidates))
+        return designer.run(plan, options, lambda member, done, total: bar.update(task, completed=done))
 
 
 def run_lsp(args: argparse.Namespace) -> int:

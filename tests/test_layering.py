@@ -32,6 +32,7 @@ ORDER = [
     "render",
     "api",
     "search",
+    "design",
     "watch",
     "lsp",
     "bench",

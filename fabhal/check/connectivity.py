@@ -30,6 +30,17 @@ _THREADED = {
 }
 
 
+def kind_problem(a: Primitive, b: Primitive) -> str | None:
+    """Why two primitives can never meet, whatever their sizes: E401 (the
+    connectivity table has no such pair), E402 (both closed where one must be
+    threaded onto the other); None if they may."""
+    if frozenset((a.kind, b.kind)) not in CONNECTABLE:
+        return "E401"
+    if frozenset((a.kind, b.kind)) in _THREADED and not (_opening(a) or _opening(b)):
+        return "E402"
+    return None
+
+
 def check(ctx: CheckContext) -> list[Diagnostic]:
     problems: list[Diagnostic] = []
     seen_pairs: dict[frozenset[tuple[str, str]], int] = {}
@@ -59,7 +70,8 @@ def check(ctx: CheckContext) -> list[Diagnostic]:
             )
             continue
         seen_pairs[pair] = connection.span.line
-        if frozenset((a.kind, b.kind)) not in CONNECTABLE:
+        found = kind_problem(a, b)
+        if found == "E401":
             problems.append(
                 error(
                     "E401",
@@ -69,7 +81,7 @@ def check(ctx: CheckContext) -> list[Diagnostic]:
                 )
             )
             continue
-        if frozenset((a.kind, b.kind)) in _THREADED and not (_opening(a) or _opening(b)):
+        if found == "E402":
             problems.append(
                 error(
                     "E402",

@@ -18,6 +18,7 @@ from concurrent.futures import Future, as_completed
 from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TypeVar
 
 import numpy as np
 
@@ -28,6 +29,8 @@ from fabhal.load import LoadedProgram, load_program
 from fabhal.search.executors import default_jobs, open_executor
 from fabhal.search.log import LogWriter, fingerprint, read_log
 from fabhal.search.members import REJECTED, Job, MemberResult, member_key, rank_key, solve_job
+
+J = TypeVar("J")  # a chunk of work for one task
 
 # members per task: enough that handing out a task (pickling the program, ~5 ms)
 # is small beside solving them (0.2-0.5 s each), few enough that the work
@@ -132,12 +135,22 @@ def _solved(
     chunks = _rows(todo) if options.smooth else _chunks(todo, options.jobs)
     settings = (options.seed, options.time_limit, options.two_step, options.inventory, options.smooth)
     jobs = [Job(program, tuple(chunk), *settings) for chunk in chunks]
-    if options.executor is None and options.jobs <= 1:  # this process, each result as it comes
+    yield from stream(solve_job, jobs, options.executor, options.jobs)
+
+
+def stream(
+    solve: Callable[[J], list[MemberResult]], jobs: Sequence[J], executor: str | None, workers: int
+) -> Iterator[MemberResult]:
+    """`solve` over `jobs` (each a chunk of work), the results as each chunk
+    finishes: in this process for one local worker, else on `workers` local
+    processes or the Dask cluster at `executor`. Used by `fabhal search` and
+    `fabhal design`."""
+    if executor is None and workers <= 1:  # this process, each result as it comes
         for job in jobs:
-            yield from solve_job(job)
+            yield from solve(job)
         return
-    with open_executor(options.executor, options.jobs) as executor:
-        futures: list[Future[list[MemberResult]]] = [executor.submit(solve_job, job) for job in jobs]
+    with open_executor(executor, workers) as pool:
+        futures: list[Future[list[MemberResult]]] = [pool.submit(solve, job) for job in jobs]
         try:
             for future in as_completed(futures):
                 yield from future.result()
