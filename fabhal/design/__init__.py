@@ -98,7 +98,9 @@ def _designs(flat, library, inventory: Inventory, options: DesignOptions, pruned
     options_links = links(library, owned)
     goal_z = _goal_height(part, target.primitive)
     for anchor in anchors(flat):
-        below = float(anchor.primitive.position[2]) - goal_z  # the request this far under the anchor
+        # the request this far under the anchor (for a part the spec hangs the target from: unknown, 0)
+        on_target = anchor.written.split(".")[0] == target.part
+        below = float(anchor.primitive.position[2]) - goal_z if on_target else 0.0
         yield from one_point(anchor, below, goal, tops, options_links, owned, options.max_parts, pruned)
         yield from two_point(anchor, below, goal, tops, options_links, owned, options.max_parts, pruned)
 

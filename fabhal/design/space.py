@@ -113,11 +113,32 @@ def supports(flat: FlatProgram) -> list[Point]:
 
 
 def anchors(flat: FlatProgram) -> list[Point]:
-    """The target part's primitives that nothing in the spec connects yet."""
-    target = flat.targets[0].part
+    """Where a design may start: the free primitives (nothing in the spec
+    connects them yet) of the target and of the parts the spec already
+    connects to it (a spec may bring part of the hack: the target in a basket)."""
     used = {(e.part, e.primitive) for c in flat.connections for e in (c.a, c.b)}
-    part = next(p for p in flat.parts if p.name == target)
-    return [p for p in _points(part) if (target, p.primitive.name) not in used]
+    group = _connected(flat, flat.targets[0].part)
+    return [
+        point
+        for part in flat.parts
+        if part.name in group
+        for point in _points(part)
+        if (part.name, point.primitive.name) not in used
+    ]
+
+
+def _connected(flat: FlatProgram, start: str) -> set[str]:
+    """The movable parts joined to `start` by the spec's connections."""
+    movable = {p.name for p in flat.parts if not p.environment}
+    group, frontier = {start}, [start]
+    while frontier:
+        name = frontier.pop()
+        for c in flat.connections:
+            for here, there in ((c.a.part, c.b.part), (c.b.part, c.a.part)):
+                if here == name and there in movable and there not in group:
+                    group.add(there)
+                    frontier.append(there)
+    return group
 
 
 def _points(part) -> list[Point]:  # type: ignore[no-untyped-def]

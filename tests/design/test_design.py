@@ -115,3 +115,17 @@ def test_a_bad_inventory_or_spec_is_said_plainly(tmp_path: Path) -> None:
 def test_the_specs_are_programs_without_connections(spec: Path) -> None:
     checked = api.check(spec)
     assert checked.flat is not None and checked.flat.connections == () and len(checked.flat.targets) == 1
+
+
+def test_a_spec_may_bring_part_of_the_hack(tmp_path: Path) -> None:
+    """The mug already hangs on one S-hook in the spec: designs start from that
+    hook's free end, and two more S-hooks reach the rod (three in all, as the
+    gallery's mug hanger; the estimate ranks that chain first)."""
+    spec = tmp_path / "half.fhl"
+    spec.write_text(MUG.read_text() + "s1 = DoubleHook()\nconnect mug.hook -- s1.hook2\n")
+    options = design.DesignOptions(jobs=1, budget=1)
+    plan = design.plan(spec, inventory(tmp_path, "DoubleHook = 2\n"), options)
+    assert [c.key for c in plan.candidates] == ["s1.hook1 <- DoubleHook <- DoubleHook <- rod"]
+    outcome = design.run(plan, options)
+    (best,) = outcome.members
+    assert best.status == "solved" and best.position_mm < 10.0 and best.parts == 3
