@@ -528,10 +528,7 @@ def build_parser() -> argparse.ArgumentParser:
     designer.add_argument(
         "--top", type=_positive, default=5, metavar="K", help="show, emit, render the best K (5)"
     )
-    designer.add_argument(
-        "-j", "--jobs", type=_positive, default=default_jobs(), help="worker processes (default: all cores)"
-    )
-    designer.add_argument("--executor", metavar="dask://HOST:PORT", help="solve on a Dask cluster instead")
+    _add_parallel_options(designer)
     designer.add_argument("--seed", type=int, default=0, help="seed for the random starts (default 0)")
     designer.add_argument("--json", action="store_true", help="print every design and its result as JSON")
     designer.add_argument("--emit", type=Path, metavar="DIR", help="write the best K as .fhl programs")
@@ -567,8 +564,14 @@ def _positive(text: str) -> int:
     return int(text)
 
 
-def _add_search_command(commands: Any, formatter: Any, gallery: str) -> None:
+def _add_parallel_options(command: argparse.ArgumentParser) -> None:
+    command.add_argument(
+        "-j", "--jobs", type=_positive, default=default_jobs(), help="worker processes (default: all cores)"
+    )
+    command.add_argument("--executor", metavar="dask://HOST:PORT", help="solve on a Dask cluster instead")
 
+
+def _add_search_command(commands: Any, formatter: Any, gallery: str) -> None:
     search = commands.add_parser(
         "search",
         help="solve every member of a program's family of designs and rank them",
@@ -579,10 +582,7 @@ def _add_search_command(commands: Any, formatter: Any, gallery: str) -> None:
     )
     search.add_argument("file", type=Path, metavar="FILE", help=".fhl program with `param`s")
     search.add_argument("--sample", type=_positive, metavar="N", help="solve a random N of the members")
-    search.add_argument(
-        "-j", "--jobs", type=_positive, default=default_jobs(), help="worker processes (default: all cores)"
-    )
-    search.add_argument("--executor", metavar="dask://HOST:PORT", help="solve on a Dask cluster instead")
+    _add_parallel_options(search)
     search.add_argument(
         "--inventory",
         type=Path,
