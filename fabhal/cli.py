@@ -33,6 +33,11 @@ examples:
   fabhal parts                               the part library, one line per part
   fabhal parts DoubleHook                    one part: primitives, DoFs, mass
   fabhal gallery                             the example hacks and reusable sub-assemblies
+  fabhal search {gallery}/clip_light_family.fhl   every member of a family, solved and ranked
+  fabhal watch my_hack.fhl                   solve on every save; a live view in the browser
+  fabhal design {gallery}/specs/mug_under_rod.fhl --inventory {gallery}/specs/s_hooks.toml
+                                             designs from the parts you own
+  fabhal lsp                                 the language server, for your editor
   fabhal check --help                        more about one command
 
 A program (.fhl) says what the hack hangs from (environment), what it holds
