@@ -932,7 +932,7 @@ def _search_outputs(plan: Any, outcome: Any, options: Any, args: argparse.Namesp
                 emit_member(plan.program, member, place, args.emit)
             print(f"wrote the best {len(best)} as programs to {args.emit}/", file=sys.stderr)
         if args.render is not None:
-            _render_best(plan, best, options, args.render)
+            _render_best(plan, outcome, best, options, args.render)
         if args.plot is not None:
             from fabhal.search.pictures import plot_errors
 
@@ -944,19 +944,28 @@ def _search_outputs(plan: Any, outcome: Any, options: Any, args: argparse.Namesp
     return None
 
 
-def _render_best(plan: Any, best: Any, options: Any, directory: Path) -> None:
+def _render_best(plan: Any, outcome: Any, best: Any, options: Any, directory: Path) -> None:
+    """The best K and their contact sheet; per name-valued param (a ring size), the
+    winner of each value side by side (winners_PARAM.png), as the paper's figure."""
+    from fabhal.search import best_by
     from fabhal.search.pictures import render_members
+    from fabhal.search.report import categorical_params
 
-    if not sys.stderr.isatty():
-        written = render_members(plan, best, options, directory)
-    else:
-        from rich.console import Console
+    sheets = [(best, "contact_sheet.png")] + [
+        (list(best_by(outcome.members, param).values()), f"winners_{param}.png")
+        for param in categorical_params(plan)
+    ]
+    for members, name in sheets:
+        if not sys.stderr.isatty():
+            written = render_members(plan, members, options, directory, sheet_name=name)
+        else:
+            from rich.console import Console
 
-        with Console(stderr=True).status("drawing") as status:
-            written = render_members(
-                plan, best, options, directory, lambda i, n: status.update(f"drawing {i} of {n}")
-            )
-    print(f"drew {len(written) - 1} members and {written[-1]}", file=sys.stderr)
+            with Console(stderr=True).status("drawing") as status:
+                written = render_members(
+                    plan, members, options, directory, lambda i, n: status.update(f"drawing {i} of {n}"), name
+                )
+        print(f"drew {len(written) - 1} members and {written[-1]}", file=sys.stderr)
 
 
 def run_watch(args: argparse.Namespace) -> int:

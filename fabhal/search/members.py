@@ -44,15 +44,21 @@ class MemberResult:
     # --smooth: the neighbour whose solved settings this result continued from (None: its own solve)
     reached_from: str | None = None
     aimed: str | None = None  # the solver's N506: the settings to build, in a builder's words
+    # --smooth, a continued result: its configuration (Solution.x), to draw it as it was found
+    x: tuple[float, ...] | None = None
 
     def to_json(self) -> dict[str, Any]:
         data = asdict(self)
         data["notes"] = list(self.notes)
+        data["x"] = list(self.x) if self.x is not None else None
         return data
 
     @classmethod
     def from_json(cls, data: Mapping[str, Any]) -> MemberResult:
-        return cls(**{**data, "notes": tuple(data.get("notes", ()))})
+        x = data.get("x")
+        return cls(
+            **{**data, "notes": tuple(data.get("notes", ())), "x": tuple(x) if x is not None else None}
+        )
 
 
 @dataclass(frozen=True)
@@ -138,9 +144,10 @@ def solve_member(
     position, rotation = solution.target_errors()
     notes = tuple(sorted({d.code for d in result.diagnostics if not d.is_error}))
     aimed = next((d.message for d in result.diagnostics if d.code == "N506"), None)
+    x = tuple(float(v) for v in solution.x) if reached_from is not None else None
     member = MemberResult(
         key, bindings, result.status, position, rotation, parts, elapsed, notes=notes,
-        reached_from=reached_from, aimed=aimed,
+        reached_from=reached_from, aimed=aimed, x=x,
     )  # fmt: skip
     return member, solution.x
 

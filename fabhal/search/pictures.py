@@ -10,6 +10,8 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, cast
 
+import numpy as np
+
 from fabhal import api
 from fabhal.render import RenderOptions, render
 from fabhal.render.picture import label_font as font
@@ -34,9 +36,11 @@ def render_members(
     options: SearchOptions,
     directory: Path,
     progress: Callable[[int, int], None] | None = None,
+    sheet_name: str = "contact_sheet.png",
 ) -> list[Path]:
-    """Solve each member again (the same answer: same program, values, seed) and
-    draw it; then the contact sheet `contact_sheet.png`. Returns every file written."""
+    """Solve each member again (the same answer: same program, values, seed; a
+    member `--smooth` continued, from the configuration it was found in) and
+    draw it; then the contact sheet `sheet_name`. Returns every file written."""
     from fabhal.search.emit import member_file_name
 
     directory.mkdir(parents=True, exist_ok=True)
@@ -44,9 +48,11 @@ def render_members(
     for place, member in enumerate(members, start=1):
         if progress is not None:
             progress(place, len(members))
+        start = np.array(member.x) if member.x is not None else None
         result = api.solve(
-            search.program, member.bindings, options.seed, options.time_limit, two_step=options.two_step
-        )
+            search.program, member.bindings, options.seed, options.time_limit, two_step=options.two_step,
+            start=start,
+        )  # fmt: skip
         if result.solution is None:
             continue
         solution = cast("Solution", result.solution)
@@ -54,7 +60,7 @@ def render_members(
         title = f"#{place} {member.key}"
         render(solution, title, path, RenderOptions(views=("iso",), size=TILE), to_dict(result, title))
         written.append((path, f"#{place}  {short_key(member)}", describe(member)))
-    sheet = directory / "contact_sheet.png"
+    sheet = directory / sheet_name
     contact_sheet(written, sheet)
     return [p for p, _, _ in written] + [sheet]
 

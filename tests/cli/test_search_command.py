@@ -161,6 +161,8 @@ def test_render_draws_the_best_and_a_contact_sheet_and_plot_the_errors(tmp_path:
     assert len(members) == 2 and members[0].startswith("01_mug_family_radius-2_")
     with Image.open(pictures / "contact_sheet.png") as sheet:
         assert sheet.size == (2 * 480, 360 + 44)  # two tiles side by side, each captioned
+    with Image.open(pictures / "winners_hook.png") as winners:
+        assert winners.size == (2 * 480, 360 + 44)  # the best with each hook type, as the paper's figure
     with Image.open(plot) as image:
         assert image.size == (2 * 560, 380)  # a panel per hook type, side by side
     assert "drew 2 members" in run.stderr and f"wrote {plot}" in run.stderr

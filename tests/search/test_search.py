@@ -178,3 +178,4 @@ def test_smooth_lets_a_member_keep_its_neighbours_settings(tmp_path: Path) -> No
     assert second.position_mm < alone[1].position_mm
     assert abs(second.position_mm - first.position_mm) <= 4 * 2.285 + 5.0
     assert second.aimed is not None and second.aimed.startswith("aimed:")  # the settings to build
+    assert first.x is None and second.x is not None and len(second.x) > 20  # to draw it as it was found
