@@ -910,7 +910,8 @@ def _print_search_summary(
     solved_here = len(outcome.members) - outcome.resumed
     where = options.executor or f"{options.jobs} worker{'s' if options.jobs != 1 else ''}"
     resumed = f" ({outcome.resumed} read back from the log)" if outcome.resumed else ""
-    print(f"{solved_here} members in {outcome.elapsed_s:.1f} s on {where}{resumed}; log: {log}")
+    members = f"{solved_here} member{'' if solved_here == 1 else 's'}"
+    print(f"{members} in {outcome.elapsed_s:.1f} s on {where}{resumed}; log: {log}")
     if not outcome.complete:
         print(
             f"interrupted: {len(outcome.members)} of {len(plan.members)} members done; "

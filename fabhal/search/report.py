@@ -32,7 +32,13 @@ def counts_line(search: SearchPlan, outcome: SearchOutcome) -> str:
         f"{status.replace('_', ' ')} {n}" for status, n in sorted(statuses.items(), key=_by_order)
     )
     sampled = f" (a sample of {len(search.members)})" if len(search.members) < search.family_size else ""
-    return f"{search.family_size} members ({sizes}){sampled}: {shown or 'none solved'}"
+    if not search.params:  # nothing to vary: say so, the answer is `fabhal solve`'s
+        return f"1 member (the program declares no `param`: a family needs some): {shown or 'none solved'}"
+    return f"{_count(search.family_size, 'member')} ({sizes}){sampled}: {shown or 'none solved'}"
+
+
+def _count(n: int, noun: str) -> str:
+    return f"{n} {noun}{'' if n == 1 else 's'}"
 
 
 def _by_order(item: tuple[str, int]) -> int:
