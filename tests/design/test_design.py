@@ -129,3 +129,27 @@ def test_a_spec_may_bring_part_of_the_hack(tmp_path: Path) -> None:
     outcome = design.run(plan, options)
     (best,) = outcome.members
     assert best.status == "solved" and best.position_mm < 10.0 and best.parts == 3
+
+
+POOL = ["DoubleHook", "DoubleHookMedium", "HookEyeRight", "RingM", "Hanger", "BinderClip"]
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_what_the_designer_keeps_the_checker_accepts(seed: int, tmp_path: Path) -> None:
+    """The designer prunes with the checker's own pair rules as designs grow;
+    every design it keeps must then pass those rules in the full check (no
+    E401, E402, E404 from `fabhal check` on its program). Random inventories
+    from a pool of hooks, rings, a hanger and a clip (seeded: reproducible)."""
+    import random
+
+    rng = random.Random(seed)
+    owned = {name: rng.randint(0, 2) for name in rng.sample(POOL, 3)}
+    text = "".join(f"{name} = {count}\n" for name, count in owned.items())
+    spec = FEEDER if seed % 2 else MUG
+    plan = design.plan(spec, inventory(tmp_path, text), design.DesignOptions(max_parts=3, budget=12))
+    assert plan.candidates  # each of these inventories allows some design (4 to 27 of them)
+    for candidate in plan.candidates:
+        program = tmp_path / "candidate.fhl"
+        program.write_text(candidate.text)
+        codes = {d.code for d in api.check(program).diagnostics if d.is_error}
+        assert not codes & {"E401", "E402", "E404"}, (candidate.key, codes)
