@@ -96,9 +96,10 @@ def solve_row(job: Job) -> list[MemberResult]:
     """`--smooth`: the members of one row of the family (every param the same but
     the last), each solved on its own, then again from its neighbour's solved
     configuration, in a sweep up the row and one down, where the neighbour hangs
-    nearer; each keeps the better result (rank_key). A neighbour's settings (where a clip grips, where a hook
-    sits on a rod) are the builder's to reuse, so a member never lands far worse
-    than the one beside it: the family's errors stop jumping."""
+    nearer: with the neighbour's settings aimed again, and kept as they are; each
+    member keeps the best result (rank_key). A neighbour's settings (where a clip
+    grips, where a hook sits on a rod) are the builder's to reuse, so a member
+    never lands far worse than the one beside it: the family's errors stop jumping."""
     found = [solve_member(job, bindings) for bindings in job.members]
     for order, step in ((range(1, len(found)), -1), (range(len(found) - 2, -1, -1), 1)):
         for k in order:
@@ -111,11 +112,15 @@ def solve_row(job: Job) -> list[MemberResult]:
             ):
                 continue
             started = time.perf_counter()
-            tried, x = solve_member(job, job.members[k], start, neighbour.key)
+            # the neighbour's settings aimed again for this member, and kept exactly as they are
+            # (settled only): aiming weighs rotation with position, the search ranks position first
+            tries = [solve_member(replace(job, two_step=kept), job.members[k], start, neighbour.key)
+                     for kept in (job.two_step, True)]  # fmt: skip
             spent = found[k][0].time_s + time.perf_counter() - started
-            better = rank_key(tried) < rank_key(found[k][0])
-            kept, kept_x = (tried, x) if better else found[k]
-            found[k] = (replace(kept, time_s=spent), kept_x)
+            best = min([found[k], *tries], key=lambda tried: rank_key(tried[0]))
+            # kept as they are, the settings to build are the neighbour's
+            aimed = best[0].aimed or (neighbour.aimed if best[0].reached_from else None)
+            found[k] = (replace(best[0], time_s=spent, aimed=aimed), best[1])
     return [member for member, _ in found]
 
 
