@@ -22,7 +22,9 @@ from fabhal import api
 from fabhal.design.program import design_text, summary
 from fabhal.design.space import Design, Pruned, anchors, links, one_point, supports, two_point
 from fabhal.diagnostics import Diagnostic, error
+from fabhal.elaborate import FlatProgram, PartInstance
 from fabhal.inventory import Inventory
+from fabhal.library import Library
 from fabhal.load import load_program
 from fabhal.search import stream
 from fabhal.search.executors import default_jobs
@@ -89,7 +91,9 @@ def plan(spec: Path, inventory: Inventory, options: DesignOptions) -> DesignPlan
     return DesignPlan(spec, len(unique), dict(pruned.counts), chosen, (), reaching=bool(reaching))
 
 
-def _designs(flat, library, inventory: Inventory, options: DesignOptions, pruned: Pruned) -> Iterator[Design]:  # type: ignore[no-untyped-def]
+def _designs(
+    flat: FlatProgram, library: Library, inventory: Inventory, options: DesignOptions, pruned: Pruned
+) -> Iterator[Design]:
     target = flat.targets[0]
     part = next(p for p in flat.parts if p.name == target.part)
     goal = np.array(target.position, dtype=float)
@@ -105,7 +109,7 @@ def _designs(flat, library, inventory: Inventory, options: DesignOptions, pruned
         yield from two_point(anchor, below, goal, tops, options_links, owned, options.max_parts, pruned)
 
 
-def _goal_height(part, primitive: str | None) -> float:  # type: ignore[no-untyped-def]
+def _goal_height(part: PartInstance, primitive: str | None) -> float:
     """The requested frame's height in the target part's own frame."""
     if primitive is None:
         return 0.0

@@ -20,7 +20,7 @@ import numpy as np
 
 from fabhal.check.connectivity import kind_problem
 from fabhal.check.dimensions import fit_problem
-from fabhal.elaborate import FlatProgram
+from fabhal.elaborate import FlatProgram, PartInstance
 from fabhal.kinematics.frames import frame_matrix
 from fabhal.library import BARE_PRIMITIVES, Library
 from fabhal.primitives import Primitive
@@ -141,7 +141,7 @@ def _connected(flat: FlatProgram, start: str) -> set[str]:
     return group
 
 
-def _points(part) -> list[Point]:  # type: ignore[no-untyped-def]
+def _points(part: PartInstance) -> list[Point]:
     frame = frame_matrix(part.position, part.rotation)
     bare = part.type_name in BARE_PRIMITIVES
     points = []
