@@ -26,6 +26,28 @@ _SEVERITY = {
     Severity.WARNING: types.DiagnosticSeverity.Warning,
     Severity.NOTE: types.DiagnosticSeverity.Information,
 }
+# what each keyword does, in a line (docs/language.md has the whole of it)
+KEYWORDS = {
+    "import": '`import "file.fhl"`: bring in that file\'s `part`, `assembly` and `material` definitions',
+    "param": "`param NAME in DOMAIN = DEFAULT`: a design parameter; `fabhal search` tries every value",
+    "in": "`param NAME in DOMAIN`: the values a parameter takes (`1 .. 4`, `linspace(...)`, `[A, B]`)",
+    "linspace": "`linspace(START, STOP, COUNT)`: COUNT evenly spaced values, both ends included",
+    "environment": "`environment NAME = Type(...) at (x, y, z)`: fixed scenery the hack hangs from",
+    "connect": "`connect a.primitive -- b.primitive`: these two connectors touch; the solver finds how",
+    "flip": "`flip`: the connection turned over (its alignment pinned the other way round)",
+    "noflip": "`noflip`: the default way round, pinned (written with neither, the solver may turn it)",
+    "fixed": "`fixed`: set once when building and then held (the solver aims it, N506)",
+    "target": "`target part.primitive at (x, y, z) rot (a, b, c)`: where the held object should end up",
+    "for": "`for i in LOW .. HIGH { ... }`: the block once per whole number i",
+    "assembly": "`assembly Name(params) { ... port p = part.primitive }`: a reusable sub-assembly",
+    "port": "`port NAME = part.primitive`: an assembly's open end, used as `instance.NAME`",
+    "part": "`part Name(params) { mesh ... mass ... primitive ... }`: a part of the library",
+    "mesh": '`mesh "file.obj"`: the part\'s shape (for contact, mass and pictures)',
+    "mass": "`mass GRAMS`: the part's mass where its mesh cannot give it (say why in a comment)",
+    "material": "`material NAME`: what the part is made of (its density gives the mass)",
+    "at": "`at (x, y, z)`: a position, in mm",
+    "rot": "`rot (a, b, c)`: a rotation, in degrees (docs/language.md: the Euler convention)",
+}
 _WORD = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
 _MEMBER_BEFORE = re.compile(r"([A-Za-z_]\w*)(?:\[[^\]]*\])?\.(\w*)$")  # `s1.ho`, `tb[i].`
 
@@ -143,7 +165,7 @@ def hover(document: Document, position: types.Position) -> types.Hover | None:
     if member and before.endswith("."):
         text = _primitive_hover(document, member.group(1), word[0])
     else:
-        text = _type_hover(document, word[0])
+        text = _type_hover(document, word[0]) or KEYWORDS.get(word[0])
     if text is None:
         return None
     span = types.Range(types.Position(position.line, word[1]), types.Position(position.line, word[2]))

@@ -84,6 +84,12 @@ async def test_hover_tells_a_part_type_and_a_primitive(client: LanguageClient) -
     assert on_primitive is not None
     assert on_primitive.contents.value.startswith("`s3.hook2` of **DoubleHook**: `hook2`: hook (")
     assert "DoFs: theta" in on_primitive.contents.value
+    on_keyword = await client.text_document_hover_async(
+        types.HoverParams(types.TextDocumentIdentifier(URI), position_of(TEXT, "connect chain.top", 2))
+    )
+    assert on_keyword is not None and on_keyword.contents.value.startswith(
+        "`connect a.primitive -- b.primitive`"
+    )
 
 
 @pytest.mark.asyncio
@@ -141,3 +147,10 @@ async def test_document_symbols_list_the_program(client: LanguageClient) -> None
         "rod", "wall", "chain", "s3", "mug",
         "chain.top -- rod", "s3.hook1 -- chain.bottom", "mug.hook -- s3.hook2", "target mug.hook",
     ]  # fmt: skip
+
+
+def test_every_keyword_has_a_hover_line() -> None:
+    from fabhal.lsp.features import KEYWORDS
+    from fabhal.syntax.lexer import grammar_keywords
+
+    assert set(KEYWORDS) == set(grammar_keywords())
