@@ -20,7 +20,17 @@ import numpy as np
 
 from fabhal import api
 from fabhal.design.program import design_text, summary
-from fabhal.design.space import Design, Pruned, anchors, links, one_point, supports, two_point
+from fabhal.design.space import (
+    Design,
+    Point,
+    Pruned,
+    anchors,
+    held_two_point,
+    links,
+    one_point,
+    supports,
+    two_point,
+)
 from fabhal.diagnostics import Diagnostic, error
 from fabhal.elaborate import FlatProgram, PartInstance
 from fabhal.inventory import Inventory
@@ -101,12 +111,22 @@ def _designs(
     owned = dict(inventory.counts)
     options_links = links(library, owned)
     goal_z = _goal_height(part, target.primitive)
-    for anchor in anchors(flat):
-        # the request this far under the anchor (for a part the spec hangs the target from: unknown, 0)
-        on_target = anchor.written.split(".")[0] == target.part
-        below = float(anchor.primitive.position[2]) - goal_z if on_target else 0.0
-        yield from one_point(anchor, below, goal, tops, options_links, owned, options.max_parts, pruned)
-        yield from two_point(anchor, below, goal, tops, options_links, owned, options.max_parts, pruned)
+    starts = anchors(flat)
+    below = {a.written: _below(a, target.part, goal_z) for a in starts}
+    for anchor in starts:
+        yield from one_point(
+            anchor, below[anchor.written], goal, tops, options_links, owned, options.max_parts, pruned
+        )
+        yield from two_point(
+            anchor, below[anchor.written], goal, tops, options_links, owned, options.max_parts, pruned
+        )
+    yield from held_two_point(starts, below, goal, tops, options_links, owned, options.max_parts, pruned)
+
+
+def _below(anchor: Point, target: str, goal_z: float) -> float:
+    """How far under the anchor the requested frame is (0, unknown, on a part that holds the target)."""
+    on_target = anchor.written.split(".")[0] == target
+    return float(anchor.primitive.position[2]) - goal_z if on_target else 0.0
 
 
 def _goal_height(part: PartInstance, primitive: str | None) -> float:

@@ -13,18 +13,16 @@ def design_text(spec_text: str, design: Design, title: str) -> str:
     namer = _Namer()
     parts: list[str] = []
     connections: list[str] = []
-    hub_name = None
-    if design.hub is not None:
-        hub_name = namer.name(design.hub[0], parts)
-        top = f"{hub_name}.{design.hub[1].name}"
-    else:
-        assert design.below is not None
-        top = design.below.support.written
-    if design.below is not None:
+    hub_name = namer.name(design.hub[0], parts) if design.hub is not None else None
+    if design.below is not None:  # one support, or the hub holding the target
+        top = f"{hub_name}.{design.hub[1].name}" if design.hub is not None else design.below.support.written
         _chain(design.anchor, design.below, top, namer, parts, connections)
     if design.branches is not None and design.hub_sides is not None and hub_name is not None:
         for side, chain in zip(design.hub_sides, design.branches, strict=True):
             _chain(f"{hub_name}.{side.name}", chain, chain.support.written, namer, parts, connections)
+    if design.branches is not None and design.second_anchor is not None:  # the target hung by itself
+        for anchor, chain in zip((design.anchor, design.second_anchor), design.branches, strict=True):
+            _chain(anchor, chain, chain.support.written, namer, parts, connections)
     body = "\n".join([f"# {title}", *parts, "", *connections])
     return spec_text.rstrip("\n") + "\n\n" + body + "\n"
 
@@ -57,6 +55,12 @@ def summary(design: Design) -> str:
     """One line: what hangs from what, bottom up (`mug.hook <- DoubleHook <- rod`;
     a hub's sides named: `Hanger(hook2 <- walls.hook1, hook3 <- DoubleHook <- walls.hook2)`)."""
     below = [link.type_name for link in design.below.links] if design.below is not None else []
+    if design.second_anchor is not None and design.branches is not None:
+        first, second = design.branches
+        return " + ".join(
+            " <- ".join([anchor, *(link.type_name for link in chain.links), chain.support.written])
+            for anchor, chain in ((design.anchor, first), (design.second_anchor, second))
+        )
     if design.hub is None or design.branches is None or design.hub_sides is None:
         assert design.below is not None
         return " <- ".join([design.anchor, *below, design.below.support.written])

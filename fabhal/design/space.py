@@ -1,6 +1,6 @@
 """The designs an inventory allows: chains that hang the target from one
 support, and two-point hangs (a hub part, or the target itself, hung from two
-supports by two chains). Each connection is tried against the checker's own
+supports, or from one rod at two places, by two chains). Each connection is tried against the checker's own
 rules before it is kept (connectivity table and closed primitives: E401,
 E402; sizes: E404), the inventory bounds how many of each part a design may
 use, and a two-point hang whose two chains and hub cannot span the distance
@@ -69,6 +69,9 @@ class Design:
     branches: tuple[Chain, Chain] | None = None
     estimate: float = math.inf  # mm: where chains hanging straight down would leave the target
     short: bool = False  # too short to reach: solved only if no design can (to say how near it gets)
+    # two-point without a hub: the target's own second primitive the second branch holds
+    # (`anchor` holds the first; the same one where it takes two, a basket's handle)
+    second_anchor: str | None = None
 
     @property
     def parts(self) -> Counter[str]:
@@ -263,6 +266,64 @@ def two_point(
                                 goal, below, tops, options, owned, pruned, (type_name, holding), down,
                                 (side_a, side_b), left, used_below, seen, target.written,
                             )  # fmt: skip
+
+
+def held_two_point(
+    targets: list[Point], below: Mapping[str, float], goal: np.ndarray, tops: list[Point],
+    options: list[Link], owned: Mapping[str, int], max_parts: int, pruned: Pruned,
+) -> Iterator[Design]:  # fmt: skip
+    """The target hung from two points by itself: a chain from each of two of its
+    primitives (or twice from one that takes two, a handle) up to a support
+    (two supports, or one rod with room for both). The loop closes only if the
+    chains and the target's span between its primitives reach across."""
+    seen: set[frozenset[tuple[str, tuple[object, ...]]]] = set()
+    for i, first_anchor in enumerate(targets):
+        for second_anchor in targets[i:]:
+            shared = first_anchor is second_anchor
+            if shared and (
+                first_anchor.primitive.kind not in ("rod", "hook") or first_anchor.primitive.single_connection
+            ):
+                continue
+            for first in chains(first_anchor.primitive, tops, options, owned, max_parts, pruned):
+                used = Counter(link.type_name for link in first.links)
+                left = max_parts - len(first.links)
+                for second in chains(
+                    second_anchor.primitive, tops, options, owned, left, pruned, Counter(used)
+                ):
+                    same_support = second.support.written == first.support.written
+                    if same_support and second.support.primitive.kind != "rod":
+                        continue  # two chains on one point are one chain; along a rod they are two
+                    if shared and same_support:
+                        continue
+                    if any(
+                        np.linalg.norm(np.subtract(c.support.position, goal))
+                        > c.length + below[a.written] + REACH_SLACK_MM
+                        for a, c in ((first_anchor, first), (second_anchor, second))
+                    ):
+                        pruned.add("reach")  # each branch must reach down to where the target is wanted
+                        continue
+                    span = float(np.linalg.norm(np.subtract(first.support.position, second.support.position)))
+                    held = float(np.linalg.norm(np.subtract(first_anchor.position, second_anchor.position)))
+                    if span > first.length + second.length + held + REACH_SLACK_MM:
+                        pruned.add("E420")
+                        continue
+                    key = frozenset(
+                        {
+                            (first_anchor.written, _chain_key(first)),
+                            (second_anchor.written, _chain_key(second)),
+                        }
+                    )
+                    if key in seen:
+                        continue
+                    seen.add(key)
+                    tops_z = [c.support.position[2] - c.length for c in (first, second)]
+                    centre = np.mean([c.support.position for c in (first, second)], axis=0)
+                    z = float(np.mean(tops_z)) - float(
+                        np.mean([below[a.written] for a in (first_anchor, second_anchor)])
+                    )
+                    estimate = float(np.linalg.norm(np.array([centre[0], centre[1], z]) - goal))
+                    yield Design(first_anchor.written, None, branches=(first, second),
+                                 second_anchor=second_anchor.written, estimate=estimate)  # fmt: skip
 
 
 def _branches(
