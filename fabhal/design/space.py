@@ -1,12 +1,13 @@
-"""The designs an inventory allows: chains that hang the target from one
-support, and two-point hangs (a hub part, or the target itself, hung from two
-supports, or from one rod at two places, by two chains). Each connection is tried against the checker's own
-rules before it is kept (connectivity table and closed primitives: E401,
-E402; sizes: E404), the inventory bounds how many of each part a design may
-use, and a two-point hang whose two chains and hub cannot span the distance
-between its supports is dropped (the loop's triangle inequality, as E420).
-Every design carries an estimate of how far from the request it would hang
-(chains hang straight down), by which the most promising are solved first."""
+"""The designs an inventory allows: chains that hang the target from one support,
+and two-point hangs (a hub part, or the target itself, hung from two supports,
+or from one rod at two places, by two chains). Each connection is tried
+against the checker's own rules before it is kept (connectivity table and
+closed primitives: E401, E402; sizes: E404), the inventory bounds how many of
+each part a design may use, and a two-point hang whose two chains and hub
+cannot span the distance between its supports is dropped (the loop's triangle
+inequality, as E420). Every design carries an estimate of how far from the
+request it would hang (chains hang straight down), by which the most promising
+are solved first."""
 
 from __future__ import annotations
 
