@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable, Iterator
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -149,14 +149,8 @@ def solve_designs(job: DesignJob) -> list[MemberResult]:
     for candidate in job.candidates:
         program = load_program(job.spec, candidate.text)
         member, _ = solve_member(Job(program, ({},), job.seed), {})
-        results.append(_named(member, candidate))
+        results.append(replace(member, key=candidate.key, bindings={"design": candidate.key}))
     return results
-
-
-def _named(member: MemberResult, candidate: Candidate) -> MemberResult:
-    from dataclasses import replace
-
-    return replace(member, key=candidate.key, bindings={"design": candidate.key})
 
 
 @dataclass(frozen=True)
@@ -171,6 +165,8 @@ def run(
     options: DesignOptions,
     progress: Callable[[MemberResult, int, int], None] | None = None,
 ) -> DesignOutcome:
+    """Solve the plan's candidates in parallel, each result as it comes (to
+    `progress`); the time limit or Ctrl-C ends it with what was solved."""
     started = time.perf_counter()
     deadline = started + options.time_limit if options.time_limit is not None else float("inf")
     candidates = search.candidates
