@@ -97,16 +97,49 @@ def solve(
     `path` may be a program already read, as for `check`. `start`: a solved
     configuration (`Solution.x`) of the same design to continue from instead
     of fitting the target (a neighbouring member of a family)."""
-    from fabhal.solve import NumericFailure, SolveOptions
-    from fabhal.solve import solve as run_solver
-
     started = time.perf_counter()
     deadline = time.monotonic() + time_limit if time_limit is not None else float("inf")
     program = _loaded(path)
     parsed = time.perf_counter()
     result = _checked(program, bindings, seed, deadline)
+    timing = {"parse_s": parsed - started, "check_s": time.perf_counter() - parsed}
+    return _solve(result, seed, time_limit, deadline, gravity, progress, two_step, start, timing)
+
+
+def solve_checked(
+    result: CheckResult,
+    seed: int = 0,
+    time_limit: float | None = None,
+    gravity: bool = True,
+    progress: Callable[[str], None] | None = None,
+    two_step: bool = False,
+    start: Array | None = None,
+) -> SolveResult:
+    """`solve` for a program `check` has already checked (with the same `seed`):
+    a family's members and designs are checked first, to reject some without
+    solving, and are then solved without checking them again. `time_limit`
+    counts from here."""
+    deadline = time.monotonic() + time_limit if time_limit is not None else float("inf")
+    timing = {"parse_s": 0.0, "check_s": 0.0}
+    return _solve(result, seed, time_limit, deadline, gravity, progress, two_step, start, timing)
+
+
+def _solve(
+    result: CheckResult,
+    seed: int,
+    time_limit: float | None,
+    deadline: float,
+    gravity: bool,
+    progress: Callable[[str], None] | None,
+    two_step: bool,
+    start: Array | None,
+    timing: dict[str, float],
+) -> SolveResult:
+    from fabhal.solve import NumericFailure, SolveOptions
+    from fabhal.solve import solve as run_solver
+
     checked = time.perf_counter()
-    timing = {"parse_s": parsed - started, "check_s": checked - parsed, "solve_s": 0.0}
+    timing = {**timing, "solve_s": 0.0}
     codes = {d.code for d in result.diagnostics if d.is_error}
     if codes & {"E420", "E421"}:
         return SolveResult("infeasible", result, None, seed, timing)

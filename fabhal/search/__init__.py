@@ -106,9 +106,10 @@ def run(
     then has what was finished, and the log lets `resume` go on from there."""
     started = time.perf_counter()
     stamp = search.fingerprint(options)
-    done = read_log(log, stamp) if resume and log.is_file() else {}
-    done = {k: v for k, v in done.items() if k in {member_key(m) for m in search.members}}
-    todo = [m for m in search.members if member_key(m) not in done]
+    keys = [member_key(m) for m in search.members]
+    logged = read_log(log, stamp) if resume and log.is_file() else {}
+    done = {key: logged[key] for key in keys if key in logged}
+    todo = [m for m, key in zip(search.members, keys, strict=True) if key not in done]
     writer = LogWriter(log, search.program.main.file if search.program.main else "", stamp, resume)
     results = dict(done)
     complete = True
@@ -122,7 +123,7 @@ def run(
         complete = False
     finally:
         writer.close()
-    ordered = tuple(results[member_key(m)] for m in search.members if member_key(m) in results)
+    ordered = tuple(results[key] for key in keys if key in results)
     return SearchOutcome(ordered, len(done), time.perf_counter() - started, complete)
 
 

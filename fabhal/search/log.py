@@ -59,12 +59,18 @@ def read_log(path: Path, expected: str) -> dict[str, MemberResult]:
     return done
 
 
+def _ends_a_line(path: Path) -> bool:
+    with path.open("rb") as log:
+        log.seek(-1, 2)
+        return log.read(1) == b"\n"
+
+
 class LogWriter:
     """Appends members to the log, each line flushed as it is written."""
 
     def __init__(self, path: Path, program: str, fingerprint: str, resume: bool) -> None:
         fresh = not (resume and path.is_file() and path.stat().st_size > 0)
-        cut_short = not fresh and not path.read_text().endswith("\n")
+        cut_short = not fresh and not _ends_a_line(path)
         self._file: IO[str] = path.open("w" if fresh else "a")
         if fresh:
             self._write({"fabhal_search": FORMAT, "program": program, "fingerprint": fingerprint})

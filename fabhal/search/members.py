@@ -17,9 +17,8 @@ if TYPE_CHECKING:
     from fabhal.kinematics.frames import Array
     from fabhal.solve import Solution
 
-# api statuses for a member that never reached the solver: the check rejected it
+# a member that never reached the solver: the check (or the inventory) rejected it
 REJECTED = "rejected"
-CHECK_REJECTS = {"error", "infeasible"}
 # the order of statuses in the ranking, after the members that hang at rest
 STATUS_ORDER = {"solved": 0, "not_at_rest": 1, "falls_apart": 2, "out_of_time": 3}
 
@@ -137,9 +136,9 @@ def solve_member(
     if first_error is not None:
         return _rejected(job, bindings, first_error, time.perf_counter() - started), None
     assert checked.flat is not None  # a program without errors has been elaborated
-    result = api.solve(job.program, bindings, job.seed, job.time_limit, two_step=job.two_step, start=start)
+    result = api.solve_checked(checked, job.seed, job.time_limit, two_step=job.two_step, start=start)
     elapsed = time.perf_counter() - started
-    if result.status in CHECK_REJECTS:  # the loops' closure can still reject it (E420, E421)
+    if result.status == "error":  # the solver failed (E505): counted with the rejected, by its code
         return _rejected(job, bindings, next(d for d in result.diagnostics if d.is_error), elapsed), None
     parts = sum(parts_used(checked.flat).values())
     key = member_key(bindings)
