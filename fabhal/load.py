@@ -92,10 +92,7 @@ class _Loader:
         return module
 
     def _load_import(self, importer: Path, statement: ast.ImportStmt) -> None:
-        candidates = [
-            base / statement.path
-            for base in (importer.parent, resources.stdlib_dir(), resources.gallery_dir())
-        ]
+        candidates = import_candidates(importer, statement.path)
         for candidate in candidates:
             if candidate.is_file():
                 try:
@@ -120,6 +117,12 @@ class _Loader:
                 "library or the gallery (`fabhal gallery` lists what it has)",
             )
         )
+
+
+def import_candidates(importer: Path, written: str) -> list[Path]:
+    """Where `import "written"` in `importer` is looked for, in order: beside
+    the importing file, in the part library, in the gallery."""
+    return [base / written for base in (importer.parent, resources.stdlib_dir(), resources.gallery_dir())]
 
 
 def load_program(path: Path | None, text: str | None = None) -> LoadedProgram:

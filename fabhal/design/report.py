@@ -6,7 +6,7 @@ programs and pictures."""
 from __future__ import annotations
 
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, cast
+from typing import Any
 
 from rich.table import Table
 
@@ -15,9 +15,6 @@ from fabhal.design.space import RULES
 from fabhal.search import rank
 from fabhal.search.members import MemberResult
 from fabhal.search.report import describe
-
-if TYPE_CHECKING:
-    from fabhal.solve import Solution
 
 
 def reaches(outcome: DesignOutcome, options: DesignOptions) -> bool:
@@ -131,19 +128,12 @@ def _file_name(search: DesignPlan, place: int) -> str:
 
 def _draw(search: DesignPlan, best: list[MemberResult], directory: Path, options: DesignOptions) -> None:
     from fabhal import api
-    from fabhal.render import RenderOptions, render
-    from fabhal.report.solution import to_dict
-    from fabhal.search.pictures import TILE, contact_sheet
+    from fabhal.search.pictures import contact_sheet, draw_tile
 
     pictures = []
     for place, member in enumerate(best, start=1):
         program = directory / _file_name(search, place)
-        result = api.solve(program, seed=options.seed)
-        if result.solution is None:
-            continue
         picture = program.with_suffix(".png")
-        title = f"#{place} {member.key}"
-        solution = cast("Solution", result.solution)
-        render(solution, title, picture, RenderOptions(views=("iso",), size=TILE), to_dict(result, title))
-        pictures.append((picture, f"#{place}  {member.parts} parts", describe(member)))
+        if draw_tile(api.solve(program, seed=options.seed), f"#{place} {member.key}", picture):
+            pictures.append((picture, f"#{place}  {member.parts} parts", describe(member)))
     contact_sheet(pictures, directory / "contact_sheet.png")

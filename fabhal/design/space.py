@@ -233,12 +233,26 @@ def one_point(
     Chains too short to reach are marked `short` (and counted), not dropped:
     when nothing reaches, the nearest of them says how far the inventory falls short."""
     for chain in chains(target.primitive, tops, options, owned, max_parts, pruned):
-        support = np.array(chain.support.position)
-        hangs = support - np.array([0.0, 0.0, chain.length + below])
-        short = bool(np.linalg.norm(support - goal) > chain.length + below + REACH_SLACK_MM)
+        hangs = np.array(chain.support.position) - np.array([0.0, 0.0, chain.length + below])
+        short = _too_short(chain, below, goal)
         if short:
             pruned.add("reach")
         yield Design(target.written, chain, estimate=float(np.linalg.norm(hangs - goal)), short=short)
+
+
+def _too_short(chain: Chain, below: float, goal: np.ndarray) -> bool:
+    """Hanging straight from its support, the chain (and the target `below` its
+    end) cannot reach down to the request."""
+    distance = float(np.linalg.norm(np.subtract(chain.support.position, goal)))
+    return distance > chain.length + below + REACH_SLACK_MM
+
+
+def _cannot_span(first: Chain, second: Chain, between: float) -> bool:
+    """The loop through two supports cannot close: its two chains and the part
+    holding both (`between` mm across) are shorter than the supports are apart
+    (the triangle inequality, as the checker's E420)."""
+    span = float(np.linalg.norm(np.subtract(first.support.position, second.support.position)))
+    return span > first.length + second.length + between + REACH_SLACK_MM
 
 
 def two_point(
@@ -297,15 +311,13 @@ def held_two_point(
                     if shared and same_support:
                         continue
                     if any(
-                        np.linalg.norm(np.subtract(c.support.position, goal))
-                        > c.length + below[a.written] + REACH_SLACK_MM
+                        _too_short(c, below[a.written], goal)
                         for a, c in ((first_anchor, first), (second_anchor, second))
                     ):
                         pruned.add("reach")  # each branch must reach down to where the target is wanted
                         continue
-                    span = float(np.linalg.norm(np.subtract(first.support.position, second.support.position)))
                     held = float(np.linalg.norm(np.subtract(first_anchor.position, second_anchor.position)))
-                    if span > first.length + second.length + held + REACH_SLACK_MM:
+                    if _cannot_span(first, second, held):
                         pruned.add("E420")
                         continue
                     key = frozenset(
@@ -340,9 +352,8 @@ def _branches(
         ):
             if second.support.written == first.support.written:
                 continue  # two points, not one
-            span = np.linalg.norm(np.subtract(first.support.position, second.support.position))
-            hub_span = np.linalg.norm(np.subtract(side_a.position, side_b.position))
-            if span > first.length + second.length + hub_span + REACH_SLACK_MM:
+            hub_span = float(np.linalg.norm(np.subtract(side_a.position, side_b.position)))
+            if _cannot_span(first, second, hub_span):
                 pruned.add("E420")
                 continue
             branches = {(_shape(side_a), _chain_key(first)), (_shape(side_b), _chain_key(second))}

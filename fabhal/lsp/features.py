@@ -12,10 +12,10 @@ from typing import Any
 
 from lsprotocol import types
 
-from fabhal import api, resources
+from fabhal import api
 from fabhal.diagnostics import Diagnostic, Severity
 from fabhal.library import Library
-from fabhal.load import InputError, load_program
+from fabhal.load import InputError, import_candidates, load_program
 from fabhal.report.parts import detail
 from fabhal.source import Span
 from fabhal.syntax import ast
@@ -303,11 +303,9 @@ def _definition_span(document: Document, name: str) -> Span | None:
 
 
 def _import_target(importer: Path, written: str) -> Path | None:
-    """Where `import "written"` is found: beside the file, in the library, in the gallery."""
-    for base in (importer.parent, resources.stdlib_dir(), resources.gallery_dir()):
-        if (base / written).is_file():
-            return (base / written).resolve()
-    return None
+    """The file `import "written"` loads (the loader's own search)."""
+    found = next((c for c in import_candidates(importer, written) if c.is_file()), None)
+    return found.resolve() if found is not None else None
 
 
 # ---------------------------------------------------------------- symbols

@@ -53,16 +53,22 @@ def render_members(
             search.program, member.bindings, options.seed, options.time_limit, two_step=options.two_step,
             start=start,
         )  # fmt: skip
-        if result.solution is None:
-            continue
-        solution = cast("Solution", result.solution)
         path = directory / (member_file_name(search.program, member, place) + ".png")
-        title = f"#{place} {member.key}"
-        render(solution, title, path, RenderOptions(views=("iso",), size=TILE), to_dict(result, title))
-        written.append((path, f"#{place}  {short_key(member)}", describe(member)))
+        if draw_tile(result, f"#{place} {member.key}", path):
+            written.append((path, f"#{place}  {short_key(member)}", describe(member)))
     sheet = directory / sheet_name
     contact_sheet(written, sheet)
     return [p for p, _, _ in written] + [sheet]
+
+
+def draw_tile(result: api.SolveResult, title: str, path: Path) -> bool:
+    """One contact-sheet tile: the solved result's three-quarter view, TILE
+    pixels; False (nothing drawn) when there is no solution to draw."""
+    if result.solution is None:
+        return False
+    solution = cast("Solution", result.solution)
+    render(solution, title, path, RenderOptions(views=("iso",), size=TILE), to_dict(result, title))
+    return True
 
 
 def short_key(member: MemberResult) -> str:
@@ -94,9 +100,12 @@ def plot_errors(search: SearchPlan, members: Sequence[MemberResult], out: Path) 
     the remaining ones; members not at rest are left out (gaps in a line)."""
     from PIL import Image
 
-    axis = _x_param(search)
-    panels = _group(members, categorical_params(search))
-    lines_by = [p for p in search.params if p != axis and p not in categorical_params(search)]
+    named = categorical_params(search)
+    numeric = [p for p in search.params if p not in named]
+    # along x: the numeric param with the most values
+    axis = max(numeric, key=lambda p: len({m[p] for m in search.members})) if numeric else None
+    panels = _group(members, named)
+    lines_by = [p for p in numeric if p != axis]
     columns = min(2, len(panels))
     rows = math.ceil(len(panels) / columns)
     image = Image.new("RGB", (columns * PANEL[0], rows * PANEL[1]), "white")
@@ -104,12 +113,6 @@ def plot_errors(search: SearchPlan, members: Sequence[MemberResult], out: Path) 
         origin = ((index % columns) * PANEL[0], (index // columns) * PANEL[1])
         _panel(image, origin, title or out.stem, axis, _group(group, lines_by))
     image.save(out)
-
-
-def _x_param(search: SearchPlan) -> str | None:
-    numeric = [p for p in search.params if p not in categorical_params(search)]
-    counts = {p: len({m[p] for m in search.members}) for p in numeric}
-    return max(numeric, key=lambda p: counts[p]) if numeric else None
 
 
 def _group(members: Sequence[MemberResult], params: Sequence[str]) -> dict[str, list[MemberResult]]:

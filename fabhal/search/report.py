@@ -12,7 +12,7 @@ from rich.table import Table
 from rich.text import Text
 
 from fabhal.search import SearchOutcome, SearchPlan, best_by, rank, rejections
-from fabhal.search.members import REJECTED, MemberResult
+from fabhal.search.members import REJECTED, STATUS_ORDER, MemberResult
 
 CSV_FIELDS = ("status", "position_mm", "rotation_deg", "parts", "time_s", "reason")
 
@@ -42,7 +42,8 @@ def _count(n: int, noun: str) -> str:
 
 
 def _by_order(item: tuple[str, int]) -> int:
-    return ["solved", "not_at_rest", "falls_apart", "out_of_time", REJECTED].index(item[0])
+    """The ranking's order of statuses (members.STATUS_ORDER), the rejected last."""
+    return STATUS_ORDER.get(item[0], len(STATUS_ORDER))
 
 
 def ranked_table(search: SearchPlan, outcome: SearchOutcome, top: int) -> Table:

@@ -14,7 +14,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, cast
 
 from fabhal import api
-from fabhal.diagnostics import Diagnostic, render_text
+from fabhal.diagnostics import Diagnostic, render_text, to_json
 from fabhal.load import InputError
 from fabhal.render.scene import RenderOptions, build_scene
 from fabhal.render.viewer import scene_payload
@@ -189,20 +189,9 @@ class LiveSession:
 def _problems(
     diagnostics: tuple[Diagnostic, ...], sources: Mapping[str, SourceFile]
 ) -> tuple[dict[str, Any], ...]:
+    """The errors and warnings as `fabhal check --json` gives them, each with its text as printed."""
     shown = [d for d in diagnostics if d.severity.value in ("error", "warning")]
-    return tuple(
-        {
-            "severity": d.severity.value,
-            "code": d.code,
-            "message": d.message,
-            "help": d.help,
-            "file": d.span.file if d.span else None,
-            "line": d.span.line if d.span else None,
-            "column": d.span.column if d.span else None,
-            "text": render_text(d, sources),
-        }
-        for d in shown
-    )
+    return tuple({**to_json(d), "text": render_text(d, sources)} for d in shown)
 
 
 def _summary(result: api.SolveResult, problems: tuple[dict[str, Any], ...]) -> str:
