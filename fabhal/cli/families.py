@@ -278,7 +278,7 @@ def run_design(args: argparse.Namespace) -> int:
         print_diagnostics(exc.diagnostics, {})
         return EXIT_USAGE
     if plan.diagnostics:
-        print_diagnostics(plan.diagnostics, {})
+        print_diagnostics(plan.diagnostics, dict(plan.sources))
         return EXIT_DIAGNOSTICS
     try:
         outcome = _design_with_progress(plan, options, args)

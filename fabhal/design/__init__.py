@@ -12,7 +12,7 @@ error, then by number of parts."""
 from __future__ import annotations
 
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
@@ -39,6 +39,7 @@ from fabhal.load import load_program
 from fabhal.search import stream
 from fabhal.search.executors import default_jobs
 from fabhal.search.members import Job, MemberResult, solve_member
+from fabhal.source import SourceFile
 
 CHUNK = 4  # designs per task
 # what the checker says of a spec because it is not connected yet: not a problem here
@@ -72,6 +73,7 @@ class DesignPlan:
     candidates: tuple[Candidate, ...]  # those to solve, most promising first
     diagnostics: tuple[Diagnostic, ...]  # why there is nothing to design, if so
     reaching: bool = True  # False: no design is long enough; the candidates are the nearest of them
+    sources: Mapping[str, SourceFile] = field(default_factory=dict)  # to quote the spec's lines
 
 
 def plan(spec: Path, inventory: Inventory, options: DesignOptions) -> DesignPlan:
@@ -82,7 +84,7 @@ def plan(spec: Path, inventory: Inventory, options: DesignOptions) -> DesignPlan
     flat = checked.flat
     if problems or flat is None or not flat.targets:
         found = problems or [error("E603", "the spec has no target", None, "add `target PART at (...)`")]
-        return DesignPlan(spec, 0, {}, (), tuple(found))
+        return DesignPlan(spec, 0, {}, (), tuple(found), sources=checked.sources)
     text = checked.sources[program.main.file].text if program.main is not None else ""
     pruned = Pruned()
     every = list(_designs(flat, checked.library, inventory, options, pruned))
@@ -98,7 +100,7 @@ def plan(spec: Path, inventory: Inventory, options: DesignOptions) -> DesignPlan
                 key, design_text(text, design, title), sum(design.parts.values()), design.estimate
             )
     chosen = tuple(list(unique.values())[: options.budget])
-    return DesignPlan(spec, len(unique), dict(pruned.counts), chosen, (), reaching=bool(reaching))
+    return DesignPlan(spec, len(unique), dict(pruned.counts), chosen, (), bool(reaching), checked.sources)
 
 
 def _designs(

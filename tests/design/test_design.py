@@ -109,6 +109,10 @@ def test_a_bad_inventory_or_spec_is_said_plainly(tmp_path: Path) -> None:
     (tmp_path / "no_target.fhl").write_text("environment rod = Rod(length: 500, radius: 2) at (0, 0, 200)\n")
     run = fabhal("design", str(tmp_path / "no_target.fhl"), "--inventory", str(SPECS / "s_hooks.toml"))
     assert run.returncode == 1 and "E603" in run.stderr and "no target" in run.stderr
+    (tmp_path / "typo.fhl").write_text(MUG.read_text().replace("mug = Mug()", "mug = Mugg()"))
+    run = fabhal("design", str(tmp_path / "typo.fhl"), "--inventory", str(SPECS / "s_hooks.toml"))
+    assert run.returncode == 1 and "typo.fhl:5:7: error[E301]: unknown part type `Mugg`" in run.stderr
+    assert "5 | mug = Mugg()" in run.stderr  # the line quoted, as `fabhal check` does
 
 
 @pytest.mark.parametrize("spec", [MUG, FEEDER], ids=lambda p: p.stem)
