@@ -188,4 +188,6 @@ def _checked(
             CheckContext(flat, model, library, seed, deadline), complete=not has_errors(found)
         )
         found.extend(report.diagnostics)
+        if report.loops is not None and report.loops.play_mm:
+            model = model.with_play(report.loops.x)  # the loops close with play: the solver keeps it
     return CheckResult(program, library, flat, model, report, tuple(sort_diagnostics(merge_repeats(found))))

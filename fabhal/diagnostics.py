@@ -48,6 +48,10 @@ def warning(code: str, message: str, span: Span | None, help: str) -> Diagnostic
     return Diagnostic(Severity.WARNING, code, message, span, help)
 
 
+def note(code: str, message: str, span: Span | None, help: str) -> Diagnostic:
+    return Diagnostic(Severity.NOTE, code, message, span, help)
+
+
 class FabhalError(Exception):
     """Raised by a stage that cannot go on; carries what to tell the user."""
 

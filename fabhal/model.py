@@ -92,6 +92,9 @@ class Model:
     unplaced: tuple[int, ...]  # parts no environment reaches
     pinned: frozenset[int]  # DoFs step 1 never moves: an object on a surface stands at its centre
     standing: tuple[Standing, ...]  # objects standing on a surface (their slide is free in step 2)
+    # the closure residuals each loop's closing connection takes up as play (see
+    # `with_play`); empty when every loop closes exactly
+    closure_play: tuple[float, ...] = ()
 
     # ---- the DoF vector
 
@@ -186,8 +189,19 @@ class Model:
         """(n_closures * 12,): per loop the position error (mm) and the rotation
         error E_R - I (x ROTATION_LENGTH_MM), in the first connector's frame.
         Zero exactly when every loop closes; linear in the error frame, so its
-        Jacobian is exact."""
-        return _residual_of(self.closure_errors(x)).ravel()
+        Jacobian is exact. Less the play a loop closes with (`with_play`)."""
+        residuals = _residual_of(self.closure_errors(x)).ravel()
+        return residuals - np.array(self.closure_play) if self.closure_play else residuals
+
+    def with_play(self, x: Array) -> Model:
+        """This model with the loops' residuals at x taken up by their closing
+        connections: a loop of rigid parts that closes only to a fraction of a
+        millimetre (coordinates written to three decimals) closes in the real
+        objects by the play of a hook on its rod or a clip's jaws. Its closure
+        constraint becomes `residuals(x') == residuals(x)`: x closes it, and
+        every motion that kept the loop closed keeps it so."""
+        residuals = _residual_of(self.closure_errors(x)).ravel()
+        return replace(self, closure_play=tuple(float(r) for r in residuals))
 
     def closure_jacobian(self, x: Array) -> Array:
         """(n_closures * 12, n_dofs) exact derivative of `closure_residuals`."""

@@ -19,7 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from fabhal.check.context import CheckContext
-from fabhal.diagnostics import Diagnostic, error, warning
+from fabhal.diagnostics import Diagnostic, error, note, warning
 from fabhal.kinematics.frames import Array, frame_matrix
 from fabhal.model import Joint, Model, Side
 from fabhal.optimize import least_squares_objective, minimize
@@ -27,6 +27,11 @@ from fabhal.optimize import least_squares_objective, minimize
 ENVIRONMENT = -1  # all environment parts act as one rigid link
 MAX_STARTS = 16
 CLOSED_MM = 1e-6  # a loop counts as closed when every residual is below this (mm, or mm-equivalent)
+# a loop the closure solve leaves open by less than this still closes in the real
+# objects: a hook on its rod, a ring in a hook, a clip's jaws have at least this
+# much play (half a millimetre, or 0.29 degrees: rotation entries count x100 mm).
+# Its closing connection takes the gap up (Model.with_play); the check says so
+LOOP_PLAY_MM = 0.5
 CLOSE_EVALUATIONS = 200  # per start of the closure solve
 # when no start closes the loops, the best is continued this many times longer
 # before the loop is called impossible: a large model (a hoop on 12 chains, 117
@@ -60,6 +65,7 @@ class LoopReport:
     worst_position_mm: float
     worst_angle_deg: float
     starts_tried: int  # fewer than MAX_STARTS when the time limit ended the search
+    play_mm: float = 0.0  # the largest residual the loops close with as play (0: exactly)
 
 
 def find_loops(model: Model) -> list[Loop]:
@@ -221,10 +227,14 @@ def close_loops(
     x0: Array | None = None,
     evaluations: int = CLOSE_EVALUATIONS,
     deadline: float = np.inf,
+    play_mm: float = 0.0,
 ) -> LoopReport:
     """Find DoFs that close every loop: least squares from `x0` (the defaults),
     then from seeded random starts, each for at most `evaluations`; stops at
-    the first start that closes them all, or at `deadline` (time.monotonic())."""
+    the first start that closes them all, or at `deadline` (time.monotonic()).
+    When none closes them exactly, the best counts as closed if it leaves no
+    residual above `play_mm` (the check's LOOP_PLAY_MM; the solver's own
+    starts must close exactly)."""
     x0 = model.x_default() if x0 is None else x0
     if not model.closures:
         return LoopReport(x0, True, 0.0, 0.0, 0)
@@ -272,7 +282,8 @@ def close_loops(
         best, best_cost = min(
             [(best, best_cost), attempt(best, POLISH_FACTOR * evaluations)], key=lambda t: t[1]
         )
-    return _report(model, full(best), best_cost < CLOSED_MM, tried)
+    closed = best_cost < max(CLOSED_MM, play_mm)
+    return _report(model, full(best), closed, tried, best_cost if closed and best_cost >= CLOSED_MM else 0.0)
 
 
 def _dof_indices(model: Model, joint: int) -> tuple[int, ...]:
@@ -286,11 +297,11 @@ def _random_start(rng: np.random.Generator, low: Array, high: Array) -> Array:
     return rng.uniform(lo, hi)
 
 
-def _report(model: Model, x: Array, closed: bool, tried: int) -> LoopReport:
+def _report(model: Model, x: Array, closed: bool, tried: int, play_mm: float = 0.0) -> LoopReport:
     errors = model.closure_errors(x)
     position = float(np.linalg.norm(errors[:, :3, 3], axis=1).max())
     cosines = np.clip((np.trace(errors[:, :3, :3], axis1=1, axis2=2) - 1.0) / 2.0, -1.0, 1.0)
-    return LoopReport(x, closed, position, float(np.degrees(np.arccos(cosines)).max()), tried)
+    return LoopReport(x, closed, position, float(np.degrees(np.arccos(cosines)).max()), tried, play_mm)
 
 
 # ---------------------------------------------------------------- the rule
@@ -306,7 +317,9 @@ def check(ctx: CheckContext) -> tuple[list[Diagnostic], LoopReport | None]:
             problems.append(_too_long(ctx, loop, links))
     if problems or not loops:
         return problems, None
-    report = close_loops(model, ctx.seed, deadline=ctx.deadline)
+    report = close_loops(model, ctx.seed, deadline=ctx.deadline, play_mm=LOOP_PLAY_MM)
+    if report.closed and report.play_mm:
+        problems.append(_closed_with_play(ctx, loops[0], report))
     if not report.closed:
         loop = loops[0]
         joint = _written_last(model, loop)
@@ -333,6 +346,24 @@ def check(ctx: CheckContext) -> tuple[list[Diagnostic], LoopReport | None]:
             )
         )
     return problems, report
+
+
+def _closed_with_play(ctx: CheckContext, loop: Loop, report: LoopReport) -> Diagnostic:
+    return note(
+        "N422",
+        f"this connection closes its loop only with {_gap_text(report)} of play: {_loop_text(ctx, loop)}",
+        _written_last(ctx.model, loop).connection.span,
+        f"the parts around the loop fit together exactly only at other dimensions; up to {LOOP_PLAY_MM} mm "
+        "(a hook's or a clip's play) the real objects still go together, and the solver takes the gap up "
+        "at this connection",
+    )
+
+
+def _gap_text(report: LoopReport) -> str:
+    """The gap as a builder reads it: micrometres below a tenth of a millimetre."""
+    position = report.worst_position_mm
+    length = f"{1000 * position:.2g} micrometres" if position < 0.1 else f"{position:.2f} mm"
+    return f"{length} and {report.worst_angle_deg:.2g} degrees"
 
 
 def _written_last(model: Model, loop: Loop) -> Joint:

@@ -33,6 +33,7 @@ EXPECTED = {
     "tight_fit": ["N416"],
     "loop_too_short": ["E420"],
     "loop_cannot_close": ["E421"],
+    "loop_closes_with_play": ["N422"],
 }
 
 

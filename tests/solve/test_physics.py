@@ -420,3 +420,63 @@ def test_a_result_with_an_open_loop_is_never_solved(tmp_path: Path, monkeypatch:
     result = api.solve(REPO / "programs" / "soap_bottle_holder.fhl")
     assert result.status == "not_at_rest"
     assert [d.code for d in result.diagnostics if d.severity == "error"] == ["E506"]
+
+
+CLIPPED_BAR = """\
+part Bar "A 50 g bar with two clips 100 mm apart." {{
+  material wood
+  mass 50
+  clip left(width: 10, height: 20, thickness: 1, dist: 3, open_gap: 6) at (-50, 0, 0)
+  clip right(width: 10, height: 20, thickness: 1, dist: 3, open_gap: 6) at (50, 0, 0)
+}}
+part Ledges "Two parallel shelf edges." {{
+  material wood
+  mass 1000
+  edge e1(width: 5, length: 60, height: 5) at (-50, 0, 0) rot (0, 90, 0)
+  edge e2(width: 5, length: 60, height: 5) at ({right}, 0, 0) rot (0, 90, 0)
+}}
+environment shelf = Ledges() at (0, 0, 500)
+bar = Bar()
+connect bar.left -- shelf.e1
+connect bar.right -- shelf.e2
+target bar at (0, 0, 480) rot (0, 0, 90)
+"""
+
+
+@pytest.mark.parametrize(("right", "play"), [("50", False), ("50.0001", True), ("50.3", True)])
+def test_a_rigid_loop_closes_with_a_joints_play(tmp_path: Path, right: str, play: bool) -> None:
+    """A bar clipped onto two parallel edges: each clip slides along its edge
+    and along its own jaw (2 DoFs a connection), 4 DoFs against the loop's 6
+    equations, so the loop closes only where the edges are exactly as far apart
+    as the clips (100 mm). Written 100.0001 mm apart (coordinates to four
+    decimals) or 100.3, the real bar still clips on: a clip's jaws have more
+    play than that. The loop is taken as closed, the gap taken up at the
+    closing connection (N422 there), and the bar hangs as on edges exactly
+    100 mm apart: level, its 50 g split between the clips, 0.05 x 9.81 / 2 =
+    0.245 N each (the edges at one height and the bar symmetric between them).
+    Tolerances: the frame to 0.5 mm (the gap itself moves the bar by at most
+    the gap), the forces to 1e-3 N (the statics' rounding)."""
+    result = solve_text(tmp_path, CLIPPED_BAR.format(right=right))
+    assert result.status == "solved"
+    solution = result.solution
+    assert solution is not None and solution.residual < 1e-6
+    notes = [d for d in result.diagnostics if d.code == "N422"]
+    assert len(notes) == int(play)
+    if play:
+        assert notes[0].span is not None and notes[0].span.line == 16  # the loop's closing connection
+    bar = solution.frames[solution.model.part_index("bar")]
+    assert bar[:3, 0] @ np.array([0.0, 0.0, 1.0]) == pytest.approx(0.0, abs=0.01)  # level
+    assert bar[2, 3] == pytest.approx(480.0, abs=0.5)
+    loads = [np.linalg.norm(force) for force in solution.forces]
+    assert loads == pytest.approx([0.05 * 9.81 / 2] * 2, abs=1e-3)
+
+
+def test_a_rigid_loop_a_millimetre_out_cannot_close(tmp_path: Path) -> None:
+    """The same bar on edges 101 mm apart: a millimetre is more than a joint's
+    play (0.5 mm), so the loop cannot close (E421), and the gap is said."""
+    program = tmp_path / "hack.fhl"
+    program.write_text(CLIPPED_BAR.format(right="51"))
+    result = api.solve(program)
+    assert result.status == "infeasible"
+    (problem,) = [d for d in result.diagnostics if d.code == "E421"]
+    assert "gap of 1.0 mm" in problem.help
