@@ -37,6 +37,7 @@ class Wrenches:
     forces: Array  # (J, 3) N, what part a exerts on part b, world axes
     moments: Array  # (J, 3) N mm about each connection's contact point
     imbalance: float  # largest unbalanced force (N, moments per MOMENT_ARM_MM) over all parts
+    unbalanced: Array  # (P, 2) per part: the force (N) and the moment (N mm) left over (0 for environments)
 
 
 def _skew(r: Array) -> Array:
@@ -59,6 +60,7 @@ def joint_wrenches(
     free_velocity: Array,
     free_rotation: Array,
     load_moments: Array | None = None,
+    force_only: Array | None = None,
 ) -> Wrenches:
     """The wrenches that hold every movable part in balance.
 
@@ -69,7 +71,10 @@ def joint_wrenches(
     the connection of each free motion, free_velocity (F, 3) the velocity of b
     against a at the contact point (mm per unit) and free_rotation (F, 3) its
     angular velocity (rad per unit); load_moments: (P, 3) N mm about each
-    part's centre of mass, of loads that do not act there (contacts)."""
+    part's centre of mass, of loads that do not act there (contacts);
+    force_only: (J,) the connections that touch at a point and can carry no
+    moment (a ball on a floor): their moments are 0, and where the rest
+    cannot balance a part without them, `unbalanced` says by how much."""
     n_joints, n_parts = len(part_a), len(movable)
     row_of = np.full(n_parts, -1)
     row_of[movable] = np.arange(int(movable.sum()))
@@ -93,10 +98,17 @@ def joint_wrenches(
     rows = rows / np.where(norms > 0.0, norms, 1.0)
     for k, j in enumerate(free_joint):
         matrix[n_balance + k, 6 * j : 6 * j + 6] = rows[k]
+    if force_only is not None:
+        for j in np.flatnonzero(force_only):
+            matrix[:, 6 * j + 3 : 6 * j + 6] = 0.0  # no moment unknowns: the least squares leaves them 0
     solution = np.asarray(
         np.linalg.lstsq(matrix, rhs, rcond=SINGULAR)[0] if matrix.size else np.zeros(0),
         dtype=float,
     )
     wrenches = solution.reshape(n_joints, 6)
-    imbalance = float(np.abs(matrix @ solution - rhs).max()) if len(rhs) else 0.0
-    return Wrenches(wrenches[:, :3], wrenches[:, 3:] * MOMENT_ARM_MM, imbalance)
+    residual = np.abs(matrix @ solution - rhs) if len(rhs) else np.zeros(0)
+    per_part = residual[:n_balance].reshape(-1, 2, 3)
+    unbalanced = np.zeros((n_parts, 2))
+    unbalanced[placed] = np.linalg.norm(per_part, axis=2) * (1.0, MOMENT_ARM_MM)
+    imbalance = float(residual.max(initial=0.0))
+    return Wrenches(wrenches[:, :3], wrenches[:, 3:] * MOMENT_ARM_MM, imbalance, unbalanced)

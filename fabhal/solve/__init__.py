@@ -18,7 +18,7 @@ from fabhal.check.cycles import close_loops
 from fabhal.diagnostics import Diagnostic, Severity, error, warning
 from fabhal.elaborate import Connection
 from fabhal.kinematics.frames import Array
-from fabhal.kinematics.statics import Wrenches
+from fabhal.kinematics.statics import MOMENT_ARM_MM, Wrenches
 from fabhal.meshes import mass_properties
 from fabhal.model import Joint, Model, build_model
 from fabhal.solve import aim as aim_mod
@@ -30,6 +30,7 @@ from fabhal.solve.forces import (
     connection_wrenches,
     friction_slides,
     normal_forces,
+    point_contacts,
     slide_dofs,
     weight_newtons,
 )
@@ -151,6 +152,8 @@ class Topple:
     part: str  # the object that falls over
     beyond_mm: float  # how far beyond its base's edge the floor would have to push (inf: it lifts off)
     slope_deg: float  # the floor's slope
+    floor: str  # the connection's side ("a" or "b") that is the floor
+    on_feet: bool = False  # it stands on round feet (points), not on a base
 
 
 @dataclass(frozen=True)
@@ -603,7 +606,7 @@ def _settle(
         equilibrium, at_bound, falls = _verify(step2, energy, x, masses, holding)
     contacts = contacts_at(model, x, pairs, weight)
     wrenches = _wrenches(step2, x, masses, centres, slides, contacts)
-    topples = _topples(model, x, wrenches, set(at_bound))
+    topples = (*_topples(model, x, wrenches, set(at_bound)), *_tips_off_its_feet(model, x, wrenches, weight))
     return Settled(x, equilibrium, at_bound, (*falls, *topples), wrenches.forces, contacts)
 
 
@@ -636,8 +639,40 @@ def _topples(model: Model, x: Array, wrenches: Wrenches, at_bound: set[int]) -> 
             beyond = float(np.max(np.abs(centre) - (length / 2.0, width / 2.0)))
         if beyond > TOPPLE_MARGIN_MM:
             slope = float(np.degrees(np.arccos(np.clip(normal[2], -1.0, 1.0))))
-            topples.append(Topple(joint.index, model.parts[thing.part].name, beyond, slope))
+            topples.append(Topple(joint.index, model.parts[thing.part].name, beyond, slope, standing.floor))
     return tuple(topples)
+
+
+def _tips_off_its_feet(model: Model, x: Array, wrenches: Wrenches, weight: float) -> tuple[Topple, ...]:
+    """Objects on round feet (hemispheres on a surface) that would fall over.
+    Each foot touches at a point: it pushes, with friction, and carries no
+    moment (the statics gives it none: forces.point_contacts). So the object
+    stands only where pushes at its feet balance it: its weight acts within the
+    polygon of its feet (a tripod's triangle; on two feet only exactly above
+    the line between them). Where they cannot, the statics' best pushes F leave
+    a moment M unbalanced: the weight acts M / F beyond the feet (exactly so on
+    two feet: F d with d the distance from their line). A foot that would have
+    to pull lifts off."""
+    feet = np.flatnonzero(point_contacts(model))
+    if not len(feet):
+        return ()
+    frames = model.part_frames(x)
+    newtons = 1000.0 * weight
+    found: dict[int, Topple] = {}
+    for j in feet.tolist():
+        joint = model.joints[j]
+        side = "a" if joint.a.primitive.kind == "surface" else "b"
+        floor, foot, sign = (joint.a, joint.b, 1.0) if side == "a" else (joint.b, joint.a, -1.0)
+        normal = model.connector_frame(floor, x, frames)[:3, 2]
+        pressing = float(sign * wrenches.forces[j] @ normal)
+        force_left, moment_left = wrenches.unbalanced[foot.part]
+        beyond = moment_left / max(newtons - force_left, 1e-12)
+        if pressing < -TOPPLE_MARGIN_MM / MOMENT_ARM_MM * newtons:
+            beyond = float("inf")
+        if beyond > TOPPLE_MARGIN_MM and foot.part not in found:
+            slope = float(np.degrees(np.arccos(np.clip(normal[2], -1.0, 1.0))))
+            found[foot.part] = Topple(j, model.parts[foot.part].name, beyond, slope, side, on_feet=True)
+    return tuple(found.values())
 
 
 def _friction_left(
@@ -1030,13 +1065,14 @@ def _lean_diagnostic(model: Model, lean: Lean) -> Diagnostic:
 
 def _topple_diagnostic(model: Model, topple: Topple) -> Diagnostic:
     joint = model.joints[topple.joint]
-    floor = next(s for s in model.standing if s.joint == topple.joint).floor
-    on = joint.connection.a if floor == "a" else joint.connection.b
-    why = (
-        "the floor would have to pull it down: it lifts off"
-        if not np.isfinite(topple.beyond_mm)
-        else f"its weight acts {topple.beyond_mm:.0f} mm beyond the edge of its base"
-    )
+    on = joint.connection.a if topple.floor == "a" else joint.connection.b
+    base = "its feet" if topple.on_feet else "the edge of its base"
+    if np.isfinite(topple.beyond_mm):
+        why = f"its weight acts {topple.beyond_mm:.0f} mm beyond {base}"
+    elif topple.on_feet:
+        why = "its weight acts outside its feet: this foot would have to pull the floor, it lifts off"
+    else:
+        why = "the floor would have to pull it down: it lifts off"
     return error(
         "E507",
         f"the assembly falls apart here: `{topple.part}` falls over on `{on}` ({why}; "

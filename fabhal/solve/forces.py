@@ -51,6 +51,21 @@ def friction_slides(model: Model) -> list[Slide]:
     return sorted(slides, key=lambda slide: slide.dofs)
 
 
+def point_contacts(model: Model) -> Array:
+    """(J,) the connections that touch at a point: a hemisphere (a ball, a
+    round foot) resting on a surface, unless `fixed` (glued or taped down). A
+    point carries a push and friction, no moment: what stands on such feet
+    stands only if its weight acts within them (`fabhal.solve` E507)."""
+    return np.array(
+        [
+            {joint.a.primitive.kind, joint.b.primitive.kind} == {"hemisphere", "surface"}
+            and not joint.connection.fixed
+            for joint in model.joints
+        ],
+        dtype=bool,
+    )
+
+
 def slide_dofs(slides: Iterable[Slide]) -> list[int]:
     return [i for slide in slides for i in slide.dofs]
 
@@ -103,6 +118,7 @@ def connection_wrenches(
         sign[:, None] * velocity.reshape(-1, 3),
         sign[:, None] * rotation,
         load_moments,
+        point_contacts(model),
     )
 
 

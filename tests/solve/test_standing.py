@@ -13,11 +13,13 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+import pytest
 from scipy.spatial.transform import Rotation
 
 from fabhal import api
 from fabhal.meshes import mass_properties
 from fabhal.solve import Topple
+from tests.conftest import REPO
 from tests.solve.test_physics import solve_text
 
 RAMP = 400.0  # mm, the floor's width and length
@@ -135,3 +137,167 @@ def test_a_tall_post_falls_over_on_a_steeper_slope_that_friction_holds(tmp_path:
     assert len(falls) == 1 and isinstance(falls[0], Topple)
     lever = post_height(result) * np.tan(np.radians(14))
     assert lever - 20.0 * np.sqrt(2.0) - 1.0 < falls[0].beyond_mm < lever - 20.0 + 1.0
+
+
+# ---------------------------------------------------------------- round feet (hemispheres)
+
+STOOL = """\
+part Stool "A post on three round feet, 60 mm from its axis, 120 degrees apart." {{
+  material wood
+  rod rod(radius: 10, length: 300) at (0, 0, 150)
+  hemisphere foot1(radius: 5) at (60, 0, 0)
+  hemisphere foot2(radius: 5) at (-30, 51.96152, 0)
+  hemisphere foot3(radius: 5) at (-30, -51.96152, 0)
+}}
+environment floor = Surface(width: 400, length: 400) at (0, 0, 0) rot ({slope}, 0, 0)
+stool = Stool()
+connect stool.foot1 -- floor
+connect stool.foot2 -- floor
+connect stool.foot3 -- floor
+target stool.rod at (0, 0, 155) rot ({slope}, 0, 0)
+"""
+
+
+def feet_and_weight_line(result: api.SolveResult, part: str) -> tuple[np.ndarray, np.ndarray]:
+    """Where each round foot of `part` touches the floor (world, mm), and the
+    point where the vertical through the part's centre of mass meets their plane
+    (for two feet: the plane through them that contains the vertical)."""
+    solution = result.solution
+    assert solution is not None
+    model = solution.model
+    k = model.part_index(part)
+    frame = solution.frames[k]
+    centre = frame[:3, :3] @ np.array(mass_properties(model.parts[k].spec).center_of_mass) + frame[:3, 3]
+    feet = np.array(
+        [
+            model.connector_frame(side, solution.x, solution.frames)[:3, 3]
+            for joint in model.joints
+            for side in (joint.a, joint.b)
+            if side.part == k and side.primitive.kind == "hemisphere"
+        ]
+    )
+    if len(feet) == 2:
+        return feet, centre
+    normal = np.cross(feet[1] - feet[0], feet[2] - feet[0])
+    drop = (feet[0] - centre) @ normal / normal[2]
+    return feet, centre + np.array([0.0, 0.0, drop])
+
+
+def inside_triangle_by(feet: np.ndarray, point: np.ndarray) -> float:
+    """How far (mm) `point` lies inside the triangle of three feet (negative: outside)."""
+    normal = np.cross(feet[1] - feet[0], feet[2] - feet[0])
+    distances = []
+    for i in range(3):
+        a, b, opposite = feet[i], feet[(i + 1) % 3], feet[(i + 2) % 3]
+        inward = np.cross(normal, b - a)
+        inward /= np.linalg.norm(inward) * np.sign((opposite - a) @ inward)
+        distances.append(float((point - a) @ inward))
+    return min(distances)
+
+
+def test_a_stool_on_three_round_feet_shares_its_weight_among_them(tmp_path: Path) -> None:
+    """A round foot touches the floor at a point: it pushes, and carries no
+    moment. On a level floor the stool's weight acts on its axis, at the centre
+    of the feet's equilateral triangle, so by symmetry each foot pushes a third
+    of it: m g / 3 (m from the mass measure, 56.4 g: 0.184 N each). Held
+    outright, as before, a foot could carry a moment and the split would not
+    be the real one. Tolerance 1e-3 N: the statics is exact, the settle leaves
+    at most 1e-4 of the weight."""
+    result = solve_text(tmp_path, STOOL.format(slope=0))
+    assert result.status == "solved"
+    solution = result.solution
+    weight = mass_properties(solution.model.parts[solution.model.part_index("stool")].spec).mass_g * 9.81e-3
+    assert [-force[2] for force in solution.forces] == pytest.approx([weight / 3] * 3, abs=1e-3)
+    assert np.abs(np.array(solution.forces)[:, :2]).max() < 1e-3  # no sideways push on a level floor
+
+
+@pytest.mark.parametrize("slope", [8, 20])
+def test_a_stool_on_round_feet_stands_while_its_weight_acts_within_them(tmp_path: Path, slope: int) -> None:
+    """On a slope the vertical through the stool's centre of mass (about 150 mm
+    up the post) meets the floor downhill of the feet's centre, h tan(slope):
+    21 mm at 8 degrees, inside the triangle (its inner circle has radius 30 mm);
+    55 mm at 20 degrees, outside every side. Outside, no pushes at three points
+    balance it: the uphill foot would have to pull, and the stool tips over
+    (E507 at that foot's connection, falls_apart). The verdict is checked
+    against the geometry of the solved pose (where the feet touch, where the
+    weight's line meets their plane), not against the estimate: the solver
+    may turn and tilt the stool on its feet to reach the request. Margin: the
+    verdict flips within TOPPLE_MARGIN_MM (0.5 mm) of a side; the cases here
+    are 10 mm or more from one."""
+    result = solve_text(tmp_path, STOOL.format(slope=slope))
+    inside = inside_triangle_by(*feet_and_weight_line(result, "stool"))
+    assert abs(inside) > 10.0
+    if inside > 0:
+        assert result.status == "solved"
+        assert all(force[2] < 0 for force in result.solution.forces)  # every foot pushes
+    else:
+        assert result.status == "falls_apart"
+        (topple,) = [d for d in result.diagnostics if d.code == "E507"]
+        assert "`stool` falls over on `floor`" in topple.message
+        assert "this foot would have to pull the floor" in topple.message
+    assert (inside > 0) == (slope == 8)
+
+
+def test_a_clip_on_its_two_round_feet_falls_over(tmp_path: Path) -> None:
+    """The plastic clip stood on its two round feet alone: two points carry no
+    moment about the line through them, so it stands only if its weight acts
+    exactly above that line. Its centre of mass lies d mm to one side (measured
+    on the solved pose: the horizontal distance of the vertical through it from
+    the feet's line; 25.8 mm); pushes F at the feet leave the moment F d
+    unbalanced: its weight acts d beyond its feet. E507, falls_apart. Before,
+    the feet were held outright and it stood. Tolerance 0.5 mm (the margin
+    of the verdict)."""
+    result = solve_text(
+        tmp_path,
+        """\
+environment counter = Surface(width: 400, length: 400) at (0, 0, 0)
+clip = PlasticClip()
+connect clip.hemisphere1 -- counter
+connect clip.hemisphere2 -- counter
+target clip at (0, 0, 30)
+""",
+    )
+    assert result.status == "falls_apart"
+    (feet, centre) = feet_and_weight_line(result, "clip")
+    along = (feet[1] - feet[0])[:2] / np.linalg.norm((feet[1] - feet[0])[:2])
+    offset = (centre - feet[0])[:2]
+    distance = float(np.linalg.norm(offset - (offset @ along) * along))
+    (fall,) = result.solution.falls
+    assert isinstance(fall, Topple) and fall.on_feet
+    assert fall.beyond_mm == pytest.approx(distance, abs=0.5)
+    assert distance > 10.0
+
+
+def test_the_toothbrush_holder_stands_on_three_points(tmp_path: Path) -> None:
+    """The gallery's toothbrush holder: the clip's two round feet and the brush's
+    head on the counter carry the clip and the brush (held together by the
+    clip's grip) as a tripod. It stands because the weight of the two acts
+    within the triangle of the three points (checked on the solved pose); the
+    three pushes add up to the weight of both, and each is a push."""
+    result = api.solve(REPO / "programs" / "toothbrush_holder.fhl")
+    assert result.status == "solved"
+    solution = result.solution
+    model = solution.model
+    frames = solution.frames
+    masses, centres = [], []
+    for name in ("clip", "brush"):
+        k = model.part_index(name)
+        measured = mass_properties(model.parts[k].spec)
+        masses.append(measured.mass_g)
+        centres.append(frames[k][:3, :3] @ np.array(measured.center_of_mass) + frames[k][:3, 3])
+    centre = np.average(centres, axis=0, weights=masses)
+    feet_joints = [j for j in model.joints if "hemisphere" in (j.a.primitive.kind, j.b.primitive.kind)]
+    feet = np.array(
+        [
+            model.connector_frame(side, solution.x, frames)[:3, 3]
+            for joint in feet_joints
+            for side in (joint.a, joint.b)
+            if side.primitive.kind == "hemisphere"
+        ]
+    )
+    assert inside_triangle_by(feet, centre * (1, 1, 0) + (0, 0, feet[0][2])) > 0.5  # the counter is level
+    # the force is what the connection's side a exerts on side b
+    sides = [-1 if j.b.primitive.kind == "surface" else 1 for j in feet_joints]
+    pushes = [solution.forces[j.index][2] * side for j, side in zip(feet_joints, sides, strict=True)]
+    assert all(push > 0 for push in pushes)
+    assert sum(pushes) == pytest.approx(sum(masses) * 9.81e-3, abs=1e-3)
