@@ -134,6 +134,17 @@ class Fall:
 
 
 @dataclass(frozen=True)
+class Slip:
+    """An object on round feet on a floor steeper than friction holds: its feet
+    would slide (where it ends, against a wall or off the floor, is not computed)."""
+
+    joint: int  # the connection of one of its feet and the floor
+    part: str
+    ratio: float  # the feet's pull along the floor over their push into it (holds up to FRICTION)
+    slope_deg: float
+
+
+@dataclass(frozen=True)
 class Lean:
     """A lean (a flex angle: a hook tilting on the rod it hangs from) pushed
     against the end of its range: the range is the model's, a real hook would
@@ -168,7 +179,7 @@ class Solution:
     residual: float  # largest loop-closure error, mm
     equilibrium: float | None  # KKT residual after settling, relative; None without gravity
     at_bound: tuple[int, ...]  # DoFs resting on an end of their range
-    falls: tuple[Fall | Topple | Lean, ...]
+    falls: tuple[Fall | Topple | Lean | Slip, ...]
     diagnostics: tuple[Diagnostic, ...]
     # (J, 3) N that each connection's a side exerts on its b side, world axes; None without gravity
     forces: Array | None = None
@@ -223,9 +234,11 @@ def solve(model: Model, options: SolveOptions, loop_start: Array | None = None) 
     return first
 
 
-def _what_failed(fall: Fall | Topple | Lean) -> str:
+def _what_failed(fall: Fall | Topple | Lean | Slip) -> str:
     if isinstance(fall, Topple):
         return "fell over"
+    if isinstance(fall, Slip):
+        return "slid on its feet"
     return "hung on a lean's limit" if isinstance(fall, Lean) else "slid off"
 
 
@@ -386,10 +399,10 @@ def _solve_once(model: Model, options: SolveOptions, loop_start: Array | None) -
         )
     overlaps = [c for c in contacts_at(model, x, pairs, _weight(masses)) if c.depth > OVERLAP_KEPT_MM]
     diagnostics.extend(_overlap_diagnostic(model, contact) for contact in overlaps[:1])
-    if any(not isinstance(fall, Lean) for fall in settled.falls):
+    if any(not isinstance(fall, Lean | Slip) for fall in settled.falls):
         status = "falls_apart"
     elif settled.falls:
-        status = "not_at_rest"  # held by a lean's stop: not a state of rest of the real objects
+        status = "not_at_rest"  # held by a lean's stop, or feet that slide: not a state of rest
     else:
         held = _at_rest(settled) and gap <= LOOP_KEPT_MM and not overlaps
         status = "solved" if held else "not_at_rest"
@@ -435,7 +448,7 @@ def _aimed(
     chosen = aim_mod.choices(step1)
     # a result that falls apart is not aimed from (one that leans on a stop is: aiming may
     # find the settings where nothing leans)
-    falls = any(not isinstance(fall, Lean) for fall in settled.falls)
+    falls = any(not isinstance(fall, Lean | Slip) for fall in settled.falls)
     if not len(chosen) or falls or not np.all(np.isfinite(settled.x)):
         return settled, []
     options.report("step 3: aiming the settings that stay put, for where the hack hangs")
@@ -523,7 +536,7 @@ class Settled:
     x: Array
     equilibrium: float | None  # KKT residual, relative to the weight; None without gravity
     at_bound: tuple[int, ...]
-    falls: tuple[Fall | Topple | Lean, ...]
+    falls: tuple[Fall | Topple | Lean | Slip, ...]
     forces: Array | None = None  # (J, 3) N each connection carries there (see Solution)
     contacts: tuple[Contact, ...] = ()
 
@@ -638,27 +651,34 @@ def _topples(model: Model, x: Array, wrenches: Wrenches, at_bound: set[int]) -> 
             centre = base.T @ np.cross(normal, moment) / pressing
             beyond = float(np.max(np.abs(centre) - (length / 2.0, width / 2.0)))
         if beyond > TOPPLE_MARGIN_MM:
-            slope = float(np.degrees(np.arccos(np.clip(normal[2], -1.0, 1.0))))
+            slope = _slope(normal)
             topples.append(Topple(joint.index, model.parts[thing.part].name, beyond, slope, standing.floor))
     return tuple(topples)
 
 
-def _tips_off_its_feet(model: Model, x: Array, wrenches: Wrenches, weight: float) -> tuple[Topple, ...]:
-    """Objects on round feet (hemispheres on a surface) that would fall over.
-    Each foot touches at a point: it pushes, with friction, and carries no
-    moment (the statics gives it none: forces.point_contacts). So the object
+def _tips_off_its_feet(
+    model: Model, x: Array, wrenches: Wrenches, weight: float
+) -> tuple[Topple | Slip, ...]:
+    """Objects on round feet (hemispheres on a surface) that would fall over or
+    slide. Each foot touches at a point: it pushes, with friction, and carries
+    no moment (the statics gives it none: forces.point_contacts). So the object
     stands only where pushes at its feet balance it: its weight acts within the
     polygon of its feet (a tripod's triangle; on two feet only exactly above
     the line between them). Where they cannot, the statics' best pushes F leave
     a moment M unbalanced: the weight acts M / F beyond the feet (exactly so on
     two feet: F d with d the distance from their line). A foot that would have
-    to pull lifts off."""
+    to pull lifts off. An object that stands slides where its feet together
+    pull along the floor more than FRICTION times they push into it (one rigid
+    object on one floor: only the sums are determined, not each foot's share)."""
     feet = np.flatnonzero(point_contacts(model))
     if not len(feet):
         return ()
     frames = model.part_frames(x)
     newtons = 1000.0 * weight
-    found: dict[int, Topple] = {}
+    found: dict[int, Topple | Slip] = {}
+    totals: dict[
+        int, tuple[Array, Array, int]
+    ] = {}  # per object: the floor's force on its feet, normal, a foot
     for j in feet.tolist():
         joint = model.joints[j]
         side = "a" if joint.a.primitive.kind == "surface" else "b"
@@ -670,9 +690,22 @@ def _tips_off_its_feet(model: Model, x: Array, wrenches: Wrenches, weight: float
         if pressing < -TOPPLE_MARGIN_MM / MOMENT_ARM_MM * newtons:
             beyond = float("inf")
         if beyond > TOPPLE_MARGIN_MM and foot.part not in found:
-            slope = float(np.degrees(np.arccos(np.clip(normal[2], -1.0, 1.0))))
-            found[foot.part] = Topple(j, model.parts[foot.part].name, beyond, slope, side, on_feet=True)
+            found[foot.part] = Topple(
+                j, model.parts[foot.part].name, beyond, _slope(normal), side, on_feet=True
+            )
+        total = totals.get(foot.part, (np.zeros(3), normal, j))[0]
+        totals[foot.part] = (total + sign * wrenches.forces[j], normal, j)
+    for part, (total, normal, j) in totals.items():
+        push = float(total @ normal)
+        ratio = float(np.linalg.norm(total - push * normal)) / max(push, 1e-12)
+        if part not in found and ratio > FRICTION * (1.0 + FRICTION_AGREEMENT):
+            found[part] = Slip(j, model.parts[part].name, ratio, _slope(normal))
     return tuple(found.values())
+
+
+def _slope(normal: Array) -> float:
+    """A floor's slope (degrees) from its normal."""
+    return float(np.degrees(np.arccos(np.clip(normal[2], -1.0, 1.0))))
 
 
 def _friction_left(
@@ -1012,9 +1045,11 @@ def _falling_part(model: Model, joint: Joint, side: str) -> str:
     return model.parts[other.part].name
 
 
-def _fall_diagnostic(model: Model, fall: Fall | Topple | Lean) -> Diagnostic:
+def _fall_diagnostic(model: Model, fall: Fall | Topple | Lean | Slip) -> Diagnostic:
     if isinstance(fall, Topple):
         return _topple_diagnostic(model, fall)
+    if isinstance(fall, Slip):
+        return _slip_diagnostic(model, fall)
     if isinstance(fall, Lean):
         return _lean_diagnostic(model, fall)
     variable = model.variables[fall.dof]
@@ -1083,4 +1118,16 @@ def _topple_diagnostic(model: Model, topple: Topple) -> Diagnostic:
     )
 
 
-__all__ = ["Fall", "Lean", "NumericFailure", "Solution", "SolveOptions", "Topple", "solve"]
+def _slip_diagnostic(model: Model, slip: Slip) -> Diagnostic:
+    return error(
+        "E510",
+        f"not at rest: `{slip.part}` slides on its round feet (they pull along the floor "
+        f"{slip.ratio:.2f} times as hard as they push into it; friction holds up to {FRICTION}: the floor "
+        f"slopes {slip.slope_deg:.0f} degrees)",
+        model.joints[slip.joint].connection.span,
+        f"level the floor below atan {FRICTION} = {np.degrees(np.arctan(FRICTION)):.1f} degrees, "
+        "or stand the object against something that stops it",
+    )
+
+
+__all__ = ["Fall", "Lean", "NumericFailure", "Slip", "Solution", "SolveOptions", "Topple", "solve"]

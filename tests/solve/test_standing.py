@@ -301,3 +301,25 @@ def test_the_toothbrush_holder_stands_on_three_points(tmp_path: Path) -> None:
     pushes = [solution.forces[j.index][2] * side for j, side in zip(feet_joints, sides, strict=True)]
     assert all(push > 0 for push in pushes)
     assert sum(pushes) == pytest.approx(sum(masses) * 9.81e-3, abs=1e-3)
+
+
+@pytest.mark.parametrize("slope", [15, 20])
+def test_a_low_stool_slides_on_its_round_feet_beyond_the_friction_angle(tmp_path: Path, slope: int) -> None:
+    """The stool with a 30 mm post: its centre of mass is so low (about 15 mm)
+    that on 20 degrees its weight still acts within its feet (h tan 20 = 5 mm,
+    the triangle's inner radius 30 mm). Its feet, together, must pull along
+    the floor m g sin(a) and push into it m g cos(a): a ratio of tan(a), 0.268
+    at 15 degrees (friction, 0.3, holds: solved) and 0.364 at 20 (it slides:
+    E510, not_at_rest, the ratio in the message). Tolerance 1e-3 on the ratio:
+    the statics is exact."""
+    text = STOOL.format(slope=slope).replace("length: 300) at (0, 0, 150)", "length: 30) at (0, 0, 15)")
+    result = solve_text(tmp_path, text)
+    if np.tan(np.radians(slope)) < 0.3:
+        assert result.status == "solved"
+        return
+    assert result.status == "not_at_rest"
+    (slip,) = [d for d in result.diagnostics if d.code == "E510"]
+    assert "`stool` slides on its round feet" in slip.message
+    assert f"{np.tan(np.radians(slope)):.2f} times" in slip.message
+    (fall,) = result.solution.falls
+    assert fall.ratio == pytest.approx(np.tan(np.radians(slope)), abs=1e-3)
