@@ -18,6 +18,7 @@ from fabhal.library import BARE_PRIMITIVES, Library, PartSpec, bare_primitive
 from fabhal.load import LoadedProgram
 from fabhal.source import Span
 from fabhal.syntax import ast
+from fabhal.syntax.format import format_expr
 from fabhal.syntax.hints import did_you_mean, suggestion
 
 Vec3 = tuple[float, float, float]
@@ -54,6 +55,16 @@ class Endpoint:
 
 
 @dataclass(frozen=True)
+class Setting:
+    """A DoF of one side of a connection held at a written value (`set (...)`)."""
+
+    side: str  # "a" or "b"
+    dof: str
+    value: float
+    span: Span
+
+
+@dataclass(frozen=True)
 class Connection:
     a: Endpoint
     b: Endpoint
@@ -63,6 +74,7 @@ class Connection:
     fixed_span: Span | None = None
     # the alignment is the program's (`flip` or `noflip` written): the solver may not turn it over
     aligned: bool = False
+    settings: tuple[Setting, ...] = ()  # the builder's written settings: held there, never chosen
 
 
 @dataclass(frozen=True)
@@ -186,8 +198,9 @@ class _Elaborator:
             if statement.flip and statement.noflip:
                 raise FabhalError([_both_alignments(statement)])
             aligned = statement.flip or statement.noflip
+            settings = self._settings(statement, (a, b), scope)
             self.connections.append(
-                Connection(a, b, statement.flip, statement.fixed, statement.span, fixed, aligned)
+                Connection(a, b, statement.flip, statement.fixed, statement.span, fixed, aligned, settings)
             )
         elif isinstance(statement, ast.TargetStmt):
             self._forbid_in_assembly(statement, scope, "a target")
@@ -201,6 +214,83 @@ class _Elaborator:
                 )
             scope.ports[statement.name] = self._endpoint(statement.ref, scope)
         # part, assembly and material definitions and imports were handled by earlier stages
+
+    def _settings(
+        self, statement: ast.ConnectStmt, sides: tuple[Endpoint, Endpoint], scope: _Scope
+    ) -> tuple[Setting, ...]:
+        """The connection's written settings, each checked: a side of this
+        connection, a DoF its primitive has, a value in its range, once."""
+        found: list[Setting] = []
+        problems: list[Diagnostic] = []
+        for written in statement.settings:
+            try:
+                setting = self._setting(written, statement, sides, scope)
+            except FabhalError as exc:
+                problems.extend(exc.diagnostics)
+                continue
+            if any((s.side, s.dof) == (setting.side, setting.dof) for s in found):
+                problems.append(
+                    error("E315", f"`{_setting_name(written)}` is set twice", written.span, "keep one value")
+                )
+            found.append(setting)
+        if problems:
+            raise FabhalError(problems)
+        return tuple(found)
+
+    def _setting(
+        self,
+        written: ast.DofSetting,
+        statement: ast.ConnectStmt,
+        sides: tuple[Endpoint, Endpoint],
+        scope: _Scope,
+    ) -> Setting:
+        endpoint = self._endpoint(written.side, scope)
+        labels = [
+            label
+            for label, side in zip("ab", sides, strict=True)
+            if (side.part, side.primitive) == (endpoint.part, endpoint.primitive)
+        ]
+        if not labels:
+            as_written = " or ".join(f"`{_ref_text(ref)}`" for ref in (statement.a, statement.b))
+            raise FabhalError(
+                [
+                    error(
+                        "E315",
+                        f"`{_ref_text(written.side)}` is not a side of this connection",
+                        written.span,
+                        f"name a DoF of one of its sides as written: {as_written}, then `.DOF`",
+                    )
+                ]
+            )
+        side = sides["ab".index(labels[0])]
+        primitive = self.part(side.part).spec.primitive(side.primitive)
+        assert primitive is not None  # the endpoint was resolved
+        dofs = {d.name: d for d in primitive.dofs}
+        if written.dof not in dofs:
+            suggestion = did_you_mean(written.dof, dofs)
+            listed = ", ".join(f"`{name}`" for name in dofs) or "none"
+            help_text = f"did you mean `{suggestion}`?" if suggestion else f"its DoFs: {listed}"
+            message = f"{primitive.kind} `{side}` has no DoF `{written.dof}`"
+            raise FabhalError([error("E315", message, written.span, help_text)])
+        dof = dofs[written.dof]
+        value = evaluate(written.value, scope.numbers())
+        if not dof.periodic and not dof.low <= value <= dof.high:
+            raise FabhalError(
+                [
+                    error(
+                        "E315",
+                        f"`{_setting_name(written)}` is {value:g}, outside its range "
+                        f"{dof.low:g} .. {dof.high:g}",
+                        written.value.span,
+                        "t runs along the primitive from 0 to 1; angles are degrees (`fabhal solve --dofs` "
+                        "shows each DoF's range)",
+                    )
+                ]
+            )
+        return Setting(labels[0], written.dof, float(value), written.span)
+
+    def part(self, name: str) -> PartInstance:
+        return next(p for p in self.parts if p.name == name)
 
     def _forbid_in_assembly(self, statement: ast.Statement, scope: _Scope, what: str) -> None:
         if scope.prefix:
@@ -572,6 +662,17 @@ def _declared_names(statements: tuple[ast.Statement, ...]) -> dict[str, Span]:
 def _callee(call: ast.Call, scope: _Scope) -> str:
     value = scope.values.get(call.callee)
     return value if isinstance(value, str) else call.callee  # `Ring()` where `param Ring in [RingS, ...]`
+
+
+def _ref_text(ref: ast.Ref) -> str:
+    """A reference as written (its index re-printed)."""
+    index = f"[{format_expr(ref.base.index)}]" if ref.base.index is not None else ""
+    primitive = f".{ref.primitive}" if ref.primitive is not None else ""
+    return f"{ref.base.name}{index}{primitive}"
+
+
+def _setting_name(written: ast.DofSetting) -> str:
+    return f"{_ref_text(written.side)}.{written.dof}"
 
 
 def _whole(expr: ast.Expr, scope: _Scope) -> int:

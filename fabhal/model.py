@@ -95,6 +95,7 @@ class Model:
     # the closure residuals each loop's closing connection takes up as play (see
     # `with_play`); empty when every loop closes exactly
     closure_play: tuple[float, ...] = ()
+    written: frozenset[int] = frozenset()  # DoFs the program sets (`set (...)`): in `pinned`, never moved
 
     # ---- the DoF vector
 
@@ -526,8 +527,9 @@ def build_model(program: FlatProgram) -> Model:
     for joint in joints:
         _keep_on_floor(joint, variables)
         _keep_threaded(joint, variables)
+    written = _written_settings(joints, variables)
     tree, closures, unplaced = _spanning_tree(program, joints)
-    pinned = frozenset(
+    pinned = written | frozenset(
         i
         for joint in joints
         for i in (*_resting_surface(joint), *_fixed_rod_line(joint, program.parts), *_threaded_centre(joint))
@@ -536,8 +538,30 @@ def build_model(program: FlatProgram) -> Model:
         s for joint in joints if not joint.connection.fixed and (s := _standing(joint)) is not None
     )
     return Model(
-        program, program.parts, tuple(joints), tree, closures, tuple(variables), unplaced, pinned, standing
+        program,
+        program.parts,
+        tuple(joints),
+        tree,
+        closures,
+        tuple(variables),
+        unplaced,
+        pinned,
+        standing,
+        written=written,
     )
+
+
+def _written_settings(joints: list[Joint], variables: list[DofVariable]) -> frozenset[int]:
+    """The DoFs the program sets (`set (...)` on a connection), each made to
+    start at its written value: they stay there (pinned) through every step."""
+    written = set()
+    for joint in joints:
+        for setting in joint.connection.settings:
+            side = joint.a if setting.side == "a" else joint.b
+            i = next(i for i in side.dof_indices if variables[i].dof.name == setting.dof)
+            variables[i] = replace(variables[i], dof=replace(variables[i].dof, default=setting.value))
+            written.add(i)
+    return frozenset(written)
 
 
 def _connection_key(connection: Connection) -> tuple[tuple[str, str], ...]:

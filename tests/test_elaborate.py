@@ -128,6 +128,13 @@ MISTAKES = {
     "connect s2.hook2 -- top.hook1\n",
     "several_name_errors": "s1 = DoubleHook()\nconnect s1.hook9 -- s2.hook1\nm = Mugg()\n",
     "both_alignments": "s1 = DoubleHook()\ns2 = DoubleHook()\nconnect s2.hook2 -- s1.hook1 flip noflip\n",
+    # each wrong `set (...)`: another connection's side, a DoF the hook lacks, a value
+    # outside the hook's arc (0 .. 270 degrees), one DoF twice; a setting of a free
+    # turn (the rod's spin) takes any angle
+    "setting_mistakes": "environment rod = Rod(length: 500, radius: 2) at (0, 0, 200)\n"
+    "s1 = DoubleHook()\ns2 = DoubleHook()\nconnect s1.hook2 -- rod set (s2.hook1.theta: 90)\n"
+    "connect s2.hook2 -- s1.hook1 set (s1.hook1.t: 0.5, s2.hook2.theta: 300)\n"
+    "connect s2.hook1 -- rod set (rod.t: 0.2, rod.t: 0.3, rod.spin: 720)\n",
 }
 
 

@@ -37,6 +37,8 @@ KEYWORDS = {
     "flip": "`flip`: the connection turned over (its alignment pinned the other way round)",
     "noflip": "`noflip`: the default way round, pinned (written with neither, the solver may turn it)",
     "fixed": "`fixed`: set once when building and then held (the solver aims it, N506)",
+    "set": "`set (side.DOF: VALUE, ...)`: the builder's setting of a connection's DoF, held there "
+    "(`fabhal solve --dofs` lists them)",
     "target": "`target part.primitive at (x, y, z) rot (a, b, c)`: where the held object should end up",
     "for": "`for i in LOW .. HIGH { ... }`: the block once per whole number i",
     "assembly": "`assembly Name(params) { ... port p = part.primitive }`: a reusable sub-assembly",

@@ -138,10 +138,10 @@ def _solution(solution: Solution) -> dict[str, Any]:
 
 def dof_rows(solution: Solution) -> list[dict[str, Any]]:
     """Every degree of freedom of the design: its connection, range, where it
-    settled (as a builder would set it) and what decides it: `set once` (a
-    clip's grip, a `fixed` connection, a place friction holds: the builder's
-    setting, aimed) or `settles` (gravity moves it); `at_end`: resting on an
-    end of its range."""
+    settled (as a builder would set it) and what decides it: `written` (the
+    program sets it: `set (...)`), `set once` (a clip's grip, a `fixed`
+    connection, a place friction holds: the builder's setting, aimed) or
+    `settles` (gravity moves it); `at_end`: resting on an end of its range."""
     model = solution.model
     settings, resting, lengths = builder_settings(model), set(solution.at_bound), mm_per_unit(model)
     rows = []
@@ -159,7 +159,7 @@ def dof_rows(solution: Solution) -> list[dict[str, Any]]:
                 "turns_freely": dof.periodic,
                 "value": round(value, 6) + 0.0,
                 "as_built": setting_text(model, i, value, float(lengths[i])),
-                "role": "set once" if i in settings else "settles",
+                "role": "written" if i in model.written else "set once" if i in settings else "settles",
                 "at_end": i in resting,
             }
         )

@@ -576,7 +576,8 @@ def _settle(
     and verified only, without the stability test and the turn (for comparing)."""
     model = step1.model
     held = {i for j in model.joints if j.held for i in j.a.dof_indices + j.b.dof_indices}
-    on_floors = {i for standing in model.standing for i in standing.slide}  # gravity may slide them
+    # gravity may slide them, unless the program set where
+    on_floors = {i for standing in model.standing for i in standing.slide} - model.written
     movable = np.array(sorted({int(i) for i in step1.free if i not in held} | on_floors), dtype=int)
     step2 = Problem(model, movable, x.copy(), step1.spacing, step1.deadline)
     weight = _weight(masses)

@@ -184,11 +184,23 @@ class ConnectOption:
 
 
 @dataclass(frozen=True)
+class DofSetting:
+    """`hanger.rod.t: 0.47` in a connection's `set (...)`: a DoF of one side
+    (`side`, as that side is written) held at a value."""
+
+    side: Ref
+    dof: str
+    value: Expr
+    span: Span
+
+
+@dataclass(frozen=True)
 class ConnectStmt:
     a: Ref
     b: Ref
     options: tuple[ConnectOption, ...]
     span: Span
+    settings: tuple[DofSetting, ...] = ()
 
     @property
     def flip(self) -> bool:

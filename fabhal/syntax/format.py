@@ -111,7 +111,9 @@ def _statement(statement: ast.Statement, depth: int) -> list[str]:
         return [f"{pad}{_lvalue(statement.name)} = {_ref(statement.ref)}"]
     if isinstance(statement, ast.ConnectStmt):
         options = "".join(f" {o.name}" for o in statement.options)
-        return [f"{pad}connect {_ref(statement.a)} -- {_ref(statement.b)}{options}"]
+        settings = ", ".join(f"{_ref(s.side)}.{s.dof}: {format_expr(s.value)}" for s in statement.settings)
+        written = f" set ({settings})" if settings else ""
+        return [f"{pad}connect {_ref(statement.a)} -- {_ref(statement.b)}{options}{written}"]
     if isinstance(statement, ast.TargetStmt):
         return [f"{pad}target {_ref(statement.ref)}{_placement(statement.placement)}"]
     if isinstance(statement, ast.PortDecl):

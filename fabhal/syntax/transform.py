@@ -14,7 +14,7 @@ from fabhal.syntax import ast
 # Punctuation and keywords the AST does not need to keep.
 _SKIP = {
     "IMPORT", "PARAM", "IN", "LINSPACE", "ENVIRONMENT", "CONNECT", "TARGET", "FOR",
-    "ASSEMBLY", "PORT", "PART", "MESH", "MASS", "MATERIAL", "AT", "ROT",
+    "ASSEMBLY", "PORT", "PART", "MESH", "MASS", "MATERIAL", "AT", "ROT", "SET",
     "DASHDASH", "DOTDOT", "EQUALS", "COLON", "COMMA", "DOT",
     "LPAR", "RPAR", "LSQB", "RSQB", "LBRACE", "RBRACE",
 }  # fmt: skip
@@ -161,10 +161,20 @@ class ToAst(Transformer[Token, ast.Module]):
         (token,) = children
         return ast.ConnectOption(str(token), self._span(meta))
 
+    def dof_setting(self, meta: Meta, children: list[Any]) -> ast.DofSetting:
+        base, *names, value = _kept(children)
+        span = self._span(meta)
+        primitive, dof = (str(names[0]), str(names[1])) if len(names) == 2 else (None, str(names[0]))
+        return ast.DofSetting(ast.Ref(base, primitive, span), dof, value, span)
+
+    def dof_settings(self, meta: Meta, children: list[Any]) -> tuple[ast.DofSetting, ...]:
+        return tuple(_of_type(_kept(children), ast.DofSetting))
+
     def connect_stmt(self, meta: Meta, children: list[Any]) -> ast.ConnectStmt:
         items = _kept(children)
         options = tuple(_of_type(items, ast.ConnectOption))
-        return ast.ConnectStmt(items[0], items[1], options, self._span(meta))
+        settings = next((item for item in items if isinstance(item, tuple)), ())
+        return ast.ConnectStmt(items[0], items[1], options, self._span(meta), settings)
 
     def target_stmt(self, meta: Meta, children: list[Any]) -> ast.TargetStmt:
         ref, placement = _kept(children)

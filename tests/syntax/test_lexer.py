@@ -16,7 +16,7 @@ from tests.conftest import all_fhl_files
 def test_the_keywords_are_the_grammars() -> None:
     assert set(grammar_keywords()) == {
         "import", "param", "in", "linspace", "environment", "connect", "flip", "noflip", "fixed", "target",
-        "for", "assembly", "port", "part", "mesh", "mass", "material", "at", "rot",
+        "for", "assembly", "port", "part", "mesh", "mass", "material", "at", "rot", "set",
     }  # fmt: skip
 
 
