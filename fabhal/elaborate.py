@@ -18,7 +18,7 @@ from fabhal.library import BARE_PRIMITIVES, Library, PartSpec, bare_primitive
 from fabhal.load import LoadedProgram
 from fabhal.source import Span
 from fabhal.syntax import ast
-from fabhal.syntax.format import format_expr
+from fabhal.syntax.format import format_ref
 from fabhal.syntax.hints import did_you_mean, suggestion
 
 Vec3 = tuple[float, float, float]
@@ -251,12 +251,12 @@ class _Elaborator:
             if (side.part, side.primitive) == (endpoint.part, endpoint.primitive)
         ]
         if not labels:
-            as_written = " or ".join(f"`{_ref_text(ref)}`" for ref in (statement.a, statement.b))
+            as_written = " or ".join(f"`{format_ref(ref)}`" for ref in (statement.a, statement.b))
             raise FabhalError(
                 [
                     error(
                         "E315",
-                        f"`{_ref_text(written.side)}` is not a side of this connection",
+                        f"`{format_ref(written.side)}` is not a side of this connection",
                         written.span,
                         f"name a DoF of one of its sides as written: {as_written}, then `.DOF`",
                     )
@@ -664,15 +664,8 @@ def _callee(call: ast.Call, scope: _Scope) -> str:
     return value if isinstance(value, str) else call.callee  # `Ring()` where `param Ring in [RingS, ...]`
 
 
-def _ref_text(ref: ast.Ref) -> str:
-    """A reference as written (its index re-printed)."""
-    index = f"[{format_expr(ref.base.index)}]" if ref.base.index is not None else ""
-    primitive = f".{ref.primitive}" if ref.primitive is not None else ""
-    return f"{ref.base.name}{index}{primitive}"
-
-
 def _setting_name(written: ast.DofSetting) -> str:
-    return f"{_ref_text(written.side)}.{written.dof}"
+    return f"{format_ref(written.side)}.{written.dof}"
 
 
 def _whole(expr: ast.Expr, scope: _Scope) -> int:

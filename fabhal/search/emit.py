@@ -6,15 +6,19 @@ from __future__ import annotations
 
 import os
 import re
+from collections import Counter
 from collections.abc import Mapping
 from pathlib import Path
 
+from fabhal import api
 from fabhal.load import LoadedProgram
 from fabhal.resources import display_name
 from fabhal.search.members import MemberResult
 from fabhal.search.report import describe, short
+from fabhal.solve.aim import builder_settings
 from fabhal.source import Span
 from fabhal.syntax import ast
+from fabhal.syntax.format import format_ref
 
 
 def emit_member(program: LoadedProgram, member: MemberResult, place: int, directory: Path) -> Path:
@@ -25,6 +29,7 @@ def emit_member(program: LoadedProgram, member: MemberResult, place: int, direct
     edits = [
         *_bound_params(program.main, text, member.bindings),
         *_moved_imports(program.main, main_path, directory),
+        *_written_settings(program, member),
     ]
     for span, replacement in sorted(edits, key=lambda e: _offset(text, e[0].line, e[0].column), reverse=True):
         start = _offset(text, span.line, span.column)
@@ -42,16 +47,50 @@ def emit_member(program: LoadedProgram, member: MemberResult, place: int, direct
 
 
 def _continued_note(member: MemberResult) -> str:
-    """What `--smooth` adds: this result came from a neighbour's settings, which to build."""
+    """What `--smooth` adds: this result came from a neighbour's settings, written below."""
     if member.reached_from is None:
         return ""
     lines = [
         f"The search reached this result from the solved settings of its neighbour {member.reached_from}",
-        "(--smooth); solved alone, this program starts afresh and may settle elsewhere.",
+        "(--smooth). The settings a builder makes once are written on their connections (`set`);",
+        "`fabhal solve` keeps them, but starts the rest afresh: the parts gravity moves may come to",
+        "rest in another of their rest states than the search's (hang them as its picture shows).",
     ]
-    if member.aimed is not None:
-        lines.append(f"Build it with the settings the search found: {member.aimed}")
     return "".join(f"# {line}\n" for line in lines)
+
+
+def _written_settings(program: LoadedProgram, member: MemberResult) -> list[tuple[Span, str]]:
+    """A continued member's settings (`--smooth`: the ones a builder makes once,
+    as found from its neighbour) written on their connections as `set (...)`, so
+    that solving the emitted program starts from them. Only connections written
+    once in the main file (not in a `for` loop or an assembly) can carry them;
+    the rest are left to the solver."""
+    if member.reached_from is None or member.x is None or program.main is None:
+        return []
+    model = api.check(program, member.bindings).model  # which DoF is which
+    if model is None:
+        return []
+    statements = {s.span: s for s in program.main.statements if isinstance(s, ast.ConnectStmt)}
+    uses = Counter(joint.connection.span for joint in model.joints)
+    written: dict[Span, list[str]] = {}
+    for i in sorted(builder_settings(model) - model.pinned):
+        variable = model.variables[i]
+        span = model.joints[variable.joint].connection.span
+        statement = statements.get(span)
+        if statement is None or uses[span] > 1:
+            continue
+        side = statement.a if variable.side == "a" else statement.b
+        written.setdefault(span, []).append(f"{format_ref(side)}.{variable.dof.name}: {member.x[i]:.12g}")
+    edits = []
+    for span, settings in written.items():
+        statement = statements[span]
+        if statement.settings:  # add to the program's own `set (...)`, before its `)`
+            at = Span(span.file, span.end_line, span.end_column - 1, span.end_line, span.end_column - 1)
+            edits.append((at, ", " + ", ".join(settings)))
+        else:
+            at = Span(span.file, span.end_line, span.end_column, span.end_line, span.end_column)
+            edits.append((at, f" set ({', '.join(settings)})"))
+    return edits
 
 
 def member_file_name(program: LoadedProgram, member: MemberResult, place: int) -> str:

@@ -50,7 +50,7 @@ def _lvalue(lvalue: ast.Lvalue) -> str:
     return lvalue.name if lvalue.index is None else f"{lvalue.name}[{format_expr(lvalue.index)}]"
 
 
-def _ref(ref: ast.Ref) -> str:
+def format_ref(ref: ast.Ref) -> str:
     return _lvalue(ref.base) + (f".{ref.primitive}" if ref.primitive else "")
 
 
@@ -108,16 +108,18 @@ def _statement(statement: ast.Statement, depth: int) -> list[str]:
     if isinstance(statement, ast.InstanceDecl):
         return [f"{pad}{_lvalue(statement.name)} = {_call(statement.call)}"]
     if isinstance(statement, ast.AliasDecl):
-        return [f"{pad}{_lvalue(statement.name)} = {_ref(statement.ref)}"]
+        return [f"{pad}{_lvalue(statement.name)} = {format_ref(statement.ref)}"]
     if isinstance(statement, ast.ConnectStmt):
         options = "".join(f" {o.name}" for o in statement.options)
-        settings = ", ".join(f"{_ref(s.side)}.{s.dof}: {format_expr(s.value)}" for s in statement.settings)
+        settings = ", ".join(
+            f"{format_ref(s.side)}.{s.dof}: {format_expr(s.value)}" for s in statement.settings
+        )
         written = f" set ({settings})" if settings else ""
-        return [f"{pad}connect {_ref(statement.a)} -- {_ref(statement.b)}{options}{written}"]
+        return [f"{pad}connect {format_ref(statement.a)} -- {format_ref(statement.b)}{options}{written}"]
     if isinstance(statement, ast.TargetStmt):
-        return [f"{pad}target {_ref(statement.ref)}{_placement(statement.placement)}"]
+        return [f"{pad}target {format_ref(statement.ref)}{_placement(statement.placement)}"]
     if isinstance(statement, ast.PortDecl):
-        return [f"{pad}port {statement.name} = {_ref(statement.ref)}"]
+        return [f"{pad}port {statement.name} = {format_ref(statement.ref)}"]
     if isinstance(statement, ast.MaterialDef):
         description = f' "{statement.description}"' if statement.description is not None else ""
         return [f"{pad}material {statement.name}({_arguments(statement.args)}){description}"]

@@ -17,6 +17,7 @@ import pytest
 
 from fabhal import api
 from fabhal.search import SearchOptions, SearchOutcome, best_by, plan, rank, rejections, run
+from fabhal.search.emit import emit_member
 from fabhal.search.log import LogError
 from fabhal.search.members import REJECTED
 from tests.conftest import DATA, REPO
@@ -179,3 +180,12 @@ def test_smooth_lets_a_member_keep_its_neighbours_settings(tmp_path: Path) -> No
     assert abs(second.position_mm - first.position_mm) <= 4 * 2.285 + 5.0
     assert second.aimed is not None and second.aimed.startswith("aimed:")  # the settings to build
     assert first.x is None and second.x is not None and len(second.x) > 20  # to draw it as it was found
+    # emitted, its settings are written on their connections, and a solve keeps them exactly
+    emitted = emit_member(plan(program, options).program, second, 1, tmp_path / "emitted")
+    (line,) = [line for line in emitted.read_text().splitlines() if " set (" in line]
+    assert line.startswith("connect light.clip -- hanger.rod set (")
+    solution = api.solve(emitted).solution
+    assert solution is not None
+    model = solution.model
+    assert model.written and all(solution.x[i] == pytest.approx(second.x[i], abs=1e-9) for i in model.written)
+    assert {model.variables[i].name for i in model.written} >= {"hanger.rod.t", "light.clip.t"}
