@@ -525,8 +525,18 @@ def _choice_note(
         span,
         (f"also {told(rest)}; " if rest else "")
         + "these are set when building and stay put (a clip's grip, a `fixed` connection, where "
-        "friction holds a part on a rod): build them so; --two-step keeps step 1's",
+        "friction holds a part on a rod): build them so; --two-step keeps step 1's"
+        + (
+            f"; to keep one in the program, write it on its line: {_written(model, changed[0], after)}"
+            if changed
+            else ""
+        ),
     )
+
+
+def _written(model: Model, i: int, x: Array) -> str:
+    """DoF i's value as the program would write it (docs/language.md, `set`)."""
+    return f"`set ({model.variables[i].name}: {x[i]:.6g})` (--dofs lists every setting)"
 
 
 @dataclass(frozen=True)

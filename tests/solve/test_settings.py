@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from fabhal.report.solution import dof_rows
+from tests.conftest import REPO
 from tests.solve.test_physics import S_HOOK_ON_ROD, connector_world, solve_text
 
 
@@ -54,3 +55,25 @@ def test_a_written_grip_is_kept_and_not_aimed(tmp_path: Path) -> None:
     assert solution.x[index] == 0.3
     aimed = [d for d in result.diagnostics if d.code == "N506"]
     assert all("along hanger.rod" not in d.message + d.help for d in aimed)
+
+
+def test_what_aiming_chose_can_be_written_back(tmp_path: Path) -> None:
+    """The demo: aiming places the S-hook on the hanger's bar (N506). Its help
+    gives the line to write to keep that choice; written on the connection,
+    the solve holds the value exactly and the hack hangs as the aimed one did
+    (the rest is aimed again from there; within 1 mm of the aimed result's
+    0.7 mm, as the same settings give the same rest)."""
+    text = (REPO / "programs" / "demo.fhl").read_text()
+    aimed = solve_text(tmp_path, text)
+    (note,) = [d for d in aimed.diagnostics if d.code == "N506"]
+    written = note.help.split("write it on its line: `")[1].split("`")[0]
+    assert written.startswith("set (hanger.rod.t: ")
+    line = "connect s.hook1 -- hanger.rod"
+    kept = solve_text(tmp_path, text.replace(line, f"{line} {written}"))
+    assert kept.status == "solved"
+    solution = kept.solution
+    index = next(i for i, v in enumerate(solution.model.variables) if v.name == "hanger.rod.t")
+    assert solution.x[index] == float(written.split(": ")[1].rstrip(")"))
+    requested = aimed.solution.goal.requested[:3, 3]
+    offsets = [np.linalg.norm(r.solution.target_frame()[:3, 3] - requested) for r in (aimed, kept)]
+    assert abs(offsets[1] - offsets[0]) < 1.0
