@@ -12,6 +12,7 @@ closed still has an inside wherever its normals face away.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -21,6 +22,8 @@ from fabhal.kinematics.frames import Array
 GRID_POINTS = 500_000
 FINEST_CELL_MM = 2.0
 BAND_CELLS = 4.0  # see signed_distance_grid
+# `could_be_inside` looks at blocks of this many cells a side
+BLOCK_CELLS = 4
 NEAREST_SAMPLES = 4  # of which the one facing the point gives its side
 
 
@@ -36,6 +39,32 @@ class DistanceGrid:
         """Whether a ball (in the grid's frame) reaches into the grid's box."""
         high = self.origin + self.spacing * (np.array(self.values.shape) - 1)
         return bool(np.linalg.norm(centre - np.clip(centre, self.origin, high)) <= radius)
+
+    def could_be_inside(self, points: Array) -> Array:
+        """(N,) bool: False where a point is certainly outside: every corner
+        value of the BLOCK_CELLS-cell block its cell lies in is positive, so the
+        trilinear distance there is too. Exact, not an estimate: `sample` of the
+        points it clears gives negative distances exactly where `sample` of all
+        would; a contact needs only those (most points of a part lie far from
+        any surface: a hoop in a room)."""
+        shape = np.array(self.values.shape)
+        corner = np.floor((points - self.origin) / self.spacing).astype(int)
+        within = np.all((corner >= 0) & (corner < shape - 1), axis=1)
+        block = np.clip(corner, 0, shape - 2) // BLOCK_CELLS
+        return within & (self._block_least[block[:, 0], block[:, 1], block[:, 2]] <= 0.0)
+
+    @cached_property
+    def _block_least(self) -> Array:
+        """The least value over each block's corners: block b covers the cells
+        b * B .. b * B + B - 1, whose corners run to b * B + B (shared with the next)."""
+        least = self.values
+        for axis in range(3):
+            n = least.shape[axis]
+            starts = np.arange(0, n - 1, BLOCK_CELLS)
+            inner = np.minimum.reduceat(least, starts, axis=axis)  # b * B .. b * B + B - 1
+            ends = np.minimum(starts + BLOCK_CELLS, n - 1)
+            least = np.minimum(inner, np.take(least, ends, axis=axis))  # and the shared corner
+        return least
 
     def sample(self, points: Array) -> tuple[Array, Array]:
         """(N, 3) points in the grid's frame -> (N,) distances and (N, 3)

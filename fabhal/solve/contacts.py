@@ -211,10 +211,12 @@ def _distances(fwd: Forward, pairs: Pairs, group: list[int]) -> tuple[Array, Arr
     # row vectors: p_world = R p + o is p @ R^T + o, and p_local = (p_world - o) @ R
     world = first.points @ part[:, :3, :3].transpose(0, 2, 1) + part[:, None, :3, 3]
     local = (world - obstacle[:, None, :3, 3]) @ obstacle[:, :3, :3]
-    # only points within the obstacle's box can be inside it: the rest are not looked up
+    # only points within the obstacle's box, and in its grid's blocks that reach
+    # inside, can be inside it: the rest are not looked up (their distances stay +inf)
     low, high = first.box
     flat = local.reshape(-1, 3)
     boxed = np.flatnonzero(np.all((flat >= low) & (flat <= high), axis=1))
+    boxed = boxed[first.grid.could_be_inside(flat[boxed])]
     distances, gradients = np.full(len(flat), np.inf), np.zeros((len(flat), 3))
     distances[boxed], gradients[boxed] = first.grid.sample(flat[boxed])
     distance: Array = distances.reshape(len(group), -1)
