@@ -24,13 +24,14 @@ part Peg(len: 10 .. 90 = 60) "a peg" {
 for i in 1 .. n {
   p[i] = Peg(len: 20 + i)
 }
+connect p[1].rod -- s3.hook2 fixed set (p[1].rod.t: 1 / 3, s3.hook2.theta: 90)
 """
 )
 
 # fragments users type, to splice into valid programs
 TOKENS = [
     "connect", "--", "-", "=", "(", ")", "[", "]", "{", "}", ".", "..", ",", ":", "#", '"',
-    "at", "rot", "flip", "noflip", "fixed", "part", "for", "in", "\n", " ", "s1", "0", "1.5", ";", "@",
+    "at", "rot", "flip", "noflip", "fixed", "set", "part", "for", "in", "\n", " ", "s1", "0", "1.5", ";", "@",
 ]  # fmt: skip
 
 
