@@ -52,6 +52,7 @@ KEYWORDS = {
 }
 _WORD = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
 _MEMBER_BEFORE = re.compile(r"([A-Za-z_]\w*)(?:\[[^\]]*\])?\.(\w*)$")  # `s1.ho`, `tb[i].`
+_DOF_BEFORE = re.compile(r"([A-Za-z_]\w*)(?:\[[^\]]*\])?\.(\w+)\.(\w*)$")  # `set (s1.hook2.th`
 
 
 @dataclass(frozen=True)
@@ -221,9 +222,13 @@ def _primitive_line(primitive: dict[str, Any]) -> str:
 
 
 def completion(document: Document, position: types.Position) -> list[types.CompletionItem]:
-    """After `name.`: that part's primitives (or the assembly's ports); elsewhere
-    part types, assemblies, keywords and the program's names."""
+    """After `name.`: that part's primitives (or the assembly's ports); after
+    `name.primitive.` (a `set (...)`): the primitive's DoFs; elsewhere part
+    types, assemblies, keywords and the program's names."""
     before = _line(document.text, position.line)[: position.character]
+    dof = _DOF_BEFORE.search(before)
+    if dof is not None:
+        return _dofs(document, dof.group(1), dof.group(2))
     member = _MEMBER_BEFORE.search(before)
     if member is not None:
         return _members(document, member.group(1))
@@ -242,6 +247,26 @@ def completion(document: Document, position: types.Position) -> list[types.Compl
     }
     items += [types.CompletionItem(n, kind=types.CompletionItemKind.Variable) for n in sorted(names)]
     return items
+
+
+def _dofs(document: Document, instance: str, primitive: str) -> list[types.CompletionItem]:
+    """The DoFs a connection makes on that primitive, with their ranges."""
+    type_name = document.instance_type(instance)
+    library = document.library
+    if type_name is None or library is None or type_name not in library.parts:
+        return []
+    spec = library.instantiate(type_name, {}, library.parts[type_name].span)
+    found = spec.primitive(primitive)
+    if found is None:
+        return []
+    return [
+        types.CompletionItem(
+            d.name,
+            kind=types.CompletionItemKind.Property,
+            detail="turns freely" if d.periodic else f"{d.low:g} .. {d.high:g}",
+        )
+        for d in found.dofs
+    ]
 
 
 def _members(document: Document, instance: str) -> list[types.CompletionItem]:

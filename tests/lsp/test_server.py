@@ -108,7 +108,23 @@ async def test_completion_offers_primitives_after_a_dot_and_part_types_elsewhere
         types.CompletionParams(types.TextDocumentIdentifier(URI), types.Position(text.count("\n"), 0))
     )
     labels = {item.label for item in anywhere.items}
-    assert {"DoubleHook", "Mug", "SHookChain", "connect", "noflip", "s3"} <= labels
+    assert {"DoubleHook", "Mug", "SHookChain", "connect", "noflip", "set", "s3"} <= labels
+
+
+@pytest.mark.asyncio
+async def test_completion_offers_a_primitives_dofs_in_a_setting(client: LanguageClient) -> None:
+    """In `set (s3.hook2.`: the DoFs a connection makes on the S-hook's hook
+    (its place round the arc and its lean), with their ranges."""
+    text = TEXT + "connect s3.hook2 -- rod set (s3.hook2.\n"
+    open_document(client, text)
+    end = types.Position(text.count("\n") - 1, len("connect s3.hook2 -- rod set (s3.hook2."))
+    found = await client.text_document_completion_async(
+        types.CompletionParams(types.TextDocumentIdentifier(URI), end)
+    )
+    assert {(item.label, item.detail) for item in found.items} == {
+        ("theta", "0 .. 270"),
+        ("phi", "45 .. 135"),
+    }
 
 
 @pytest.mark.asyncio
