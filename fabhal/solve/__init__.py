@@ -818,6 +818,8 @@ def step_one(
     costs as much as a short fit, and a fit that succeeds needs no more starts."""
     x0 = model.x_default()
     low, high = model.bounds()
+    written = list(model.written)
+    low[written] = high[written] = x0[written]  # spread the others around what the program set
     spacing = spacing_constraints(model, spread(spacing_constraints(model, x0), x0, low, high))
     x0 = spread(spacing, x0, low, high)
     free = np.array([i for i in range(len(model.variables)) if i not in model.pinned], dtype=int)

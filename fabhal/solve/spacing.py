@@ -86,7 +86,8 @@ def spread(constraints: list[Spacing], x: Array, low: Array, high: Array) -> Arr
     rod, not beside both), of equals the first of their canonical order and
     then the others; halfway between packed to one end and packed to the
     other; evenly in the canonical order where no order fits (then the fit
-    reports what it cannot close)."""
+    reports what it cannot close). A DoF whose range is one value (`low` ==
+    `high`: written by the program) stays where it is."""
     x = x.copy()
     gaps = {}
     for c in constraints:
@@ -97,7 +98,9 @@ def spread(constraints: list[Spacing], x: Array, low: Array, high: Array) -> Arr
         # max keeps the first of equals
         placed = max(fits, key=lambda p: max(p.values()) - min(p.values()), default=None)
         if placed is None:
-            placed = {i: (rank + 1) / (len(members) + 1) for rank, i in enumerate(members)}
+            placed = {
+                i: (rank + 1) / (len(members) + 1) for rank, i in enumerate(members) if low[i] < high[i]
+            }
         for i, t in placed.items():
             x[i] = t
     return x

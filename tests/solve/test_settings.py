@@ -77,3 +77,27 @@ def test_what_aiming_chose_can_be_written_back(tmp_path: Path) -> None:
     requested = aimed.solution.goal.requested[:3, 3]
     offsets = [np.linalg.norm(r.solution.target_frame()[:3, 3] - requested) for r in (aimed, kept)]
     assert abs(offsets[1] - offsets[0]) < 1.0
+
+
+def test_written_places_of_parts_sharing_a_rod_are_kept(tmp_path: Path) -> None:
+    """Two S-hooks on one rod, written at t = 0.2 and 0.7: the solver spreads
+    parts that share a primitive before fitting (all would start in its
+    middle), and must spread only those the program leaves open. Found with a
+    newcomer's hack: both written places were overwritten by the spread (0.331
+    and 0.669) while --dofs said "written". On a 500 mm level rod the hooks
+    hang 250 mm apart, (0.7 - 0.2) x 500, exactly."""
+    result = solve_text(
+        tmp_path,
+        """\
+environment rod = Rod(length: 500, radius: 2) at (0, 0, 300) rot (90, 0, 90)
+s1 = DoubleHook()
+s2 = DoubleHook()
+connect s1.hook2 -- rod set (rod.t: 0.2)
+connect s2.hook2 -- rod set (rod.t: 0.7)
+target s1.hook1 at (0, 0, 260)
+""",
+    )
+    assert result.status == "solved"
+    solution = result.solution
+    contacts = [connector_world(solution, j.index, "b")[:3, 3] for j in solution.model.joints]
+    assert sorted(float(c[0]) for c in contacts) == pytest.approx([-150.0, 100.0], abs=1e-6)
