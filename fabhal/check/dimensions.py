@@ -201,6 +201,7 @@ def check(ctx: CheckContext) -> list[Diagnostic]:
                 )
             )
     problems.extend(_room(ctx))
+    problems.extend(_written_apart(ctx))
     return problems
 
 
@@ -216,6 +217,39 @@ def _room(ctx: CheckContext) -> list[Diagnostic]:
                 continue
             done.add(key)
             problems.extend(_fill(ctx, end, host, capacity))
+    return problems
+
+
+def _written_apart(ctx: CheckContext) -> list[Diagnostic]:
+    """Parts whose places on one rod, tube or edge the program writes (`set
+    (rod.t: ...)`) must be far enough apart for both: half of what each uses
+    of it (`usage`) each way from its place. The solver moves only what the
+    program leaves open, so it could not part them."""
+    problems = []
+    placed: dict[tuple[str, str], list[tuple[float, float, Endpoint]]] = {}  # mm along, half width, guest
+    for connection in ctx.program.connections:
+        for label, end in (("a", connection.a), ("b", connection.b)):
+            host = ctx.primitive(end)
+            slide = next((d.name for d in host.dofs if d.critical), None)
+            written = next((s for s in connection.settings if (s.side, s.dof) == (label, slide)), None)
+            if host.kind not in ("rod", "tube", "edge") or written is None:
+                continue
+            guest = other_end(connection, end)
+            along, half = written.value * host.params["length"], usage(host, ctx.primitive(guest)) / 2.0
+            for other_along, other_half, other in placed.get((end.part, end.primitive), []):
+                needed = half + other_half
+                if other.part != guest.part and abs(along - other_along) < needed - 1e-9:
+                    problems.append(
+                        error(
+                            "E418",
+                            f"`{guest}` is written {abs(along - other_along):.3g} mm from `{other}` on "
+                            f"{ctx.describe(end)}; they need {needed:.3g} mm",
+                            written.span,
+                            f"write their places at least {needed / host.params['length']:.3g} apart (t runs "
+                            "along the whole primitive), or leave one to the solver",
+                        )
+                    )
+            placed.setdefault((end.part, end.primitive), []).append((along, half, guest))
     return problems
 
 

@@ -34,6 +34,8 @@ EXPECTED = {
     "loop_too_short": ["E420"],
     "loop_cannot_close": ["E421"],
     "loop_closes_with_play": ["N422"],
+    # two S-hooks written 0.5 mm apart on a rod: each wire (2 mm radius) needs 2 mm each way
+    "written_too_close": ["E418"],
 }
 
 
