@@ -74,10 +74,12 @@ along a rod, or over the floor it stands on, only where gravity beats
 friction). Then the settings that stay put (where a clip grips a bar, where
 a part sits on a rod that friction holds) are aimed: chosen again so that the
 settled target hangs nearest the request (note N506 lists them; --two-step
-keeps step 1's). If a connection would slide off an open end, or an object fall
-over on its floor, from every start tried, the status is `falls_apart` and
-the message names the connection; a result that
-is not verified at rest (E503) has the status `not_at_rest`.
+keeps step 1's; a setting written in the program, `set (hanger.rod.t: 0.47)`
+on its connection, is held as written). If a connection would slide off an
+open end, or an object fall over on its floor or its round feet, from every
+start tried, the status is `falls_apart` and the message names the
+connection; a result that is not verified at rest (E503; an object sliding on
+its feet, E510) has the status `not_at_rest`.
 
 --time-limit bounds the whole command (checking included): at the limit the
 best result so far is reported, with warning W502; if the loops of the design
