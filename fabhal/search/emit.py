@@ -26,10 +26,11 @@ def emit_member(program: LoadedProgram, member: MemberResult, place: int, direct
     assert program.main is not None  # a family has members only when its program parsed
     main_path = program.paths[program.main.file]
     text = program.sources[program.main.file].text
+    settings, unwritten = _written_settings(program, member)
     edits = [
         *_bound_params(program.main, text, member.bindings),
         *_moved_imports(program.main, main_path, directory),
-        *_written_settings(program, member),
+        *settings,
     ]
     for span, replacement in sorted(edits, key=lambda e: _offset(text, e[0].line, e[0].column), reverse=True):
         start = _offset(text, span.line, span.column)
@@ -38,7 +39,9 @@ def emit_member(program: LoadedProgram, member: MemberResult, place: int, direct
     header = (
         f"# Member {member.key} of {display_name(main_path)}, found by `fabhal search` "
         f"(#{place}: {describe(member)}).\n"
-        "# Its params are bound below; solve it with `fabhal solve`.\n" + _continued_note(member) + "\n"
+        "# Its params are bound below; solve it with `fabhal solve`.\n"
+        + _continued_note(member, unwritten)
+        + "\n"
     )
     directory.mkdir(parents=True, exist_ok=True)
     path = directory / (member_file_name(program, member, place) + ".fhl")
@@ -46,8 +49,9 @@ def emit_member(program: LoadedProgram, member: MemberResult, place: int, direct
     return path
 
 
-def _continued_note(member: MemberResult) -> str:
-    """What `--smooth` adds: this result came from a neighbour's settings, written below."""
+def _continued_note(member: MemberResult, unwritten: bool) -> str:
+    """What `--smooth` adds: this result came from a neighbour's settings, written
+    below; where some could not be (`unwritten`), all of them in a builder's words."""
     if member.reached_from is None:
         return ""
     lines = [
@@ -56,28 +60,32 @@ def _continued_note(member: MemberResult) -> str:
         "`fabhal solve` keeps them, but starts the rest afresh: the parts gravity moves may come to",
         "rest in another of their rest states than the search's (hang them as its picture shows).",
     ]
+    if unwritten and member.aimed is not None:
+        lines.append(f"Not all could be written (a `for` loop or an assembly makes them): {member.aimed}")
     return "".join(f"# {line}\n" for line in lines)
 
 
-def _written_settings(program: LoadedProgram, member: MemberResult) -> list[tuple[Span, str]]:
+def _written_settings(program: LoadedProgram, member: MemberResult) -> tuple[list[tuple[Span, str]], bool]:
     """A continued member's settings (`--smooth`: the ones a builder makes once,
     as found from its neighbour) written on their connections as `set (...)`, so
-    that solving the emitted program starts from them. Only connections written
-    once in the main file (not in a `for` loop or an assembly) can carry them;
-    the rest are left to the solver."""
+    that solving the emitted program starts from them, and whether some could
+    not be: only connections written once in the main file (not in a `for`
+    loop or an assembly) can carry them; the rest are left to the solver."""
     if member.reached_from is None or member.x is None or program.main is None:
-        return []
+        return [], False
     model = api.check(program, member.bindings).model  # which DoF is which
     if model is None:
-        return []
+        return [], True
     statements = {s.span: s for s in program.main.statements if isinstance(s, ast.ConnectStmt)}
     uses = Counter(joint.connection.span for joint in model.joints)
     written: dict[Span, list[str]] = {}
+    unwritten = False
     for i in sorted(builder_settings(model) - model.pinned):
         variable = model.variables[i]
         span = model.joints[variable.joint].connection.span
         statement = statements.get(span)
         if statement is None or uses[span] > 1:
+            unwritten = True
             continue
         side = statement.a if variable.side == "a" else statement.b
         written.setdefault(span, []).append(f"{format_ref(side)}.{variable.dof.name}: {member.x[i]:.12g}")
@@ -90,7 +98,7 @@ def _written_settings(program: LoadedProgram, member: MemberResult) -> list[tupl
         else:
             at = Span(span.file, span.end_line, span.end_column, span.end_line, span.end_column)
             edits.append((at, f" set ({', '.join(settings)})"))
-    return edits
+    return edits, unwritten
 
 
 def member_file_name(program: LoadedProgram, member: MemberResult, place: int) -> str:

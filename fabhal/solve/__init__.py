@@ -687,9 +687,8 @@ def _tips_off_its_feet(
     frames = model.part_frames(x)
     newtons = 1000.0 * weight
     found: dict[int, Topple | Slip] = {}
-    totals: dict[
-        int, tuple[Array, Array, int]
-    ] = {}  # per object: the floor's force on its feet, normal, a foot
+    # per object: the floor's force on all its feet, the floor's normal, one foot
+    totals: dict[int, tuple[Array, Array, int]] = {}
     for j in feet.tolist():
         joint = model.joints[j]
         side = "a" if joint.a.primitive.kind == "surface" else "b"

@@ -17,7 +17,7 @@ import pytest
 
 from fabhal import api
 from fabhal.search import SearchOptions, SearchOutcome, best_by, plan, rank, rejections, run
-from fabhal.search.emit import emit_member
+from fabhal.search.emit import _continued_note, emit_member
 from fabhal.search.log import LogError
 from fabhal.search.members import REJECTED
 from tests.conftest import DATA, REPO
@@ -183,6 +183,9 @@ def test_smooth_lets_a_member_keep_its_neighbours_settings(tmp_path: Path) -> No
     # emitted, its settings are written on their connections, and a solve keeps them exactly
     emitted = emit_member(plan(program, options).program, second, 1, tmp_path / "emitted")
     (line,) = [line for line in emitted.read_text().splitlines() if " set (" in line]
+    assert "Not all could be written" not in emitted.read_text()  # every setting is on its line
+    # where a `for` loop or an assembly makes a connection, the header names all settings in words
+    assert second.aimed in _continued_note(second, unwritten=True)
     assert line.startswith("connect light.clip -- hanger.rod set (")
     solution = api.solve(emitted).solution
     assert solution is not None
