@@ -29,6 +29,8 @@ from fabhal.primitives import FRAME_FORMULAS, Dof, FrameFormula, Primitive, alig
 # matrix entries (R - I, about the angle in radians for small angles) count as
 # this many millimetres, so 1 degree of misalignment weighs like 1.75 mm
 ROTATION_LENGTH_MM = 100.0
+# trees deeper than this compose their frames by pointer jumping (`_tree_jumps`)
+POINTER_JUMPING_DEPTH = 16
 
 
 @dataclass(frozen=True)
@@ -165,10 +167,11 @@ class Model:
             local, d_local = layout.local_frames(x), None
         frames = layout.environment_frames.copy()
         edges = layout.edges
-        # child in parent for every edge in one product; then one product per level
-        relative = local[edges.parent_side] @ edges.offset @ invert(local[edges.child_side])
-        for level in layout.levels:  # all parts at one depth of the tree at once
-            frames[level.child] = frames[level.parent] @ relative[level.edges]
+        # child in parent for every edge in one product; then one product per round,
+        # a level of the tree or a round of pointer jumping (`_tree_jumps`)
+        frames[edges.child] = local[edges.parent_side] @ edges.offset @ invert(local[edges.child_side])
+        for jump in layout.jumps:  # numpy gathers the ancestors before writing: all at once
+            frames[jump.pending] = frames[jump.ancestor] @ frames[jump.pending]
         if d_local is None:
             return Forward(frames, local, None, None)
         # the twist of a DoF turns its side's part about that side's connector:
@@ -311,20 +314,21 @@ class SideGroup:
 
 
 @dataclass(frozen=True)
-class TreeLevel:
-    """The tree edges whose child is at one depth below the environments."""
+class Jump:
+    """One round of pointer jumping over the tree (`_forward`): each pending part's
+    frame, relative to its current ancestor, is composed with that ancestor's."""
 
-    parent: Array  # (m,) part indices
-    child: Array
-    edges: slice  # these edges in `TreeEdges`
+    pending: Array  # (m,) part indices whose frame is not yet in the world
+    ancestor: Array  # (m,) the part each one's frame is relative to
 
 
 @dataclass(frozen=True)
 class TreeEdges:
-    """Every tree edge, level by level: what places each child relative to its parent."""
+    """Every tree edge: what places each child relative to its parent."""
 
     parent_side: Array  # (e,) side indices
     child_side: Array
+    child: Array  # (e,) the part each edge places
     offset: Array  # (e, 4, 4) alignment, oriented parent -> child
 
 
@@ -336,7 +340,7 @@ class ChainLayout:
     n_sides: int
     n_dofs: int
     environment_frames: Array  # (n_parts, 4, 4); identity for parts the tree places
-    levels: tuple[TreeLevel, ...]
+    jumps: tuple[Jump, ...]
     edges: TreeEdges
     dof_side: Array  # (n_dofs,) side of each DoF
     dof_part: Array  # (n_dofs,) part of that side
@@ -432,7 +436,7 @@ def _chain_layout(model: Model) -> ChainLayout:
         len(sides),
         n_dofs,
         environment_frames,
-        *_tree_levels(model),
+        *_tree_jumps(model),
         dof_side,
         np.array([sides[s].part for s in dof_side], dtype=int),
         tree_sign,
@@ -460,35 +464,52 @@ def _subtrees(model: Model) -> dict[int, set[int]]:
     return subtrees
 
 
-def _tree_levels(model: Model) -> tuple[tuple[TreeLevel, ...], TreeEdges]:
-    depth = {i: 0 for i, p in enumerate(model.parts) if p.environment}
-    by_depth: dict[int, list[tuple[int, int, int, int, Array]]] = {}
+def _tree_jumps(model: Model) -> tuple[tuple[Jump, ...], TreeEdges]:
+    """The tree's edges, and the rounds that compose them into world frames.
+
+    A tree up to POINTER_JUMPING_DEPTH deep is composed a level at a time (each
+    part's frame after its parent's world frame). A deeper one by pointer
+    jumping: each round composes every pending part's frame with its current
+    ancestor's and takes that ancestor's ancestor, so a chain of 100 S-hooks
+    takes 8 rounds instead of 100. Jumping re-associates the products, so the
+    last bits of the frames differ from the level order's, and a settle that
+    balances on a knife's edge may then land elsewhere; on shallow trees it
+    gains nothing (a few microseconds), so they keep the level order."""
+    ancestor = np.full(len(model.parts), -1, dtype=int)
+    depth = np.zeros(len(model.parts), dtype=int)
+    edges = []
     for edge in model.tree:  # parents come before children
         joint = model.joints[edge.joint]
         parent, child = model.placed_sides(edge)
         offset = joint.offset if edge.parent_side == "a" else joint.offset.T
         parent_side = 2 * joint.index + (0 if edge.parent_side == "a" else 1)
+        ancestor[child.part] = parent.part
         depth[child.part] = depth[parent.part] + 1
-        by_depth.setdefault(depth[child.part], []).append(
-            (parent.part, child.part, parent_side, parent_side ^ 1, offset)
-        )
-    ordered = [edges for _, edges in sorted(by_depth.items())]
-    levels, start = [], 0
-    for edges in ordered:
-        levels.append(
-            TreeLevel(
-                np.array([e[0] for e in edges], dtype=int),
-                np.array([e[1] for e in edges], dtype=int),
-                slice(start, start + len(edges)),
-            )
-        )
-        start += len(edges)
-    flat = [e for edges in ordered for e in edges]
-    return tuple(levels), TreeEdges(
-        np.array([e[2] for e in flat], dtype=int),
-        np.array([e[3] for e in flat], dtype=int),
-        np.array([e[4] for e in flat]).reshape(len(flat), 4, 4),
+        edges.append((parent_side, parent_side ^ 1, child.part, offset))
+    if depth.max(initial=0) <= POINTER_JUMPING_DEPTH:
+        levels = (np.flatnonzero(depth == d) for d in range(1, depth.max(initial=0) + 1))
+        jumps = tuple(Jump(level, ancestor[level]) for level in levels)
+    else:
+        jumps = _pointer_jumps(ancestor)
+    return jumps, TreeEdges(
+        np.array([e[0] for e in edges], dtype=int),
+        np.array([e[1] for e in edges], dtype=int),
+        np.array([e[2] for e in edges], dtype=int),
+        np.array([e[3] for e in edges]).reshape(len(edges), 4, 4),
     )
+
+
+def _pointer_jumps(ancestor: Array) -> tuple[Jump, ...]:
+    """Rounds of pointer jumping over a tree given by each part's parent (-1 for
+    the environments and unplaced parts, whose frames are already known)."""
+    jumps = []
+    while np.any(ancestor >= 0):
+        pending = np.flatnonzero(ancestor >= 0)
+        jumps.append(Jump(pending, ancestor[pending]))
+        further = ancestor[ancestor[pending]]  # an environment's is -1: done next round
+        ancestor = ancestor.copy()
+        ancestor[pending] = further
+    return tuple(jumps)
 
 
 def _residual_change(d_error: Array) -> Array:
