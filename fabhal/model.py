@@ -20,10 +20,13 @@ from dataclasses import dataclass, replace
 from functools import cached_property
 
 import numpy as np
+from numpy.typing import NDArray
 
 from fabhal.elaborate import Connection, Endpoint, FlatProgram, PartInstance
 from fabhal.kinematics.frames import Array, angular_velocities, frame_matrix, invert
 from fabhal.primitives import FRAME_FORMULAS, Dof, FrameFormula, Primitive, alignment_offset
+
+Index = NDArray[np.intp]
 
 # closure residuals put rotation next to position (mm): the rotation error's
 # matrix entries (R - I, about the angle in radians for small angles) count as
@@ -318,8 +321,8 @@ class Jump:
     """One round of pointer jumping over the tree (`_forward`): each pending part's
     frame, relative to its current ancestor, is composed with that ancestor's."""
 
-    pending: Array  # (m,) part indices whose frame is not yet in the world
-    ancestor: Array  # (m,) the part each one's frame is relative to
+    pending: Index  # (m,) part indices whose frame is not yet in the world
+    ancestor: Index  # (m,) the part each one's frame is relative to
 
 
 @dataclass(frozen=True)
@@ -499,7 +502,7 @@ def _tree_jumps(model: Model) -> tuple[tuple[Jump, ...], TreeEdges]:
     )
 
 
-def _pointer_jumps(ancestor: Array) -> tuple[Jump, ...]:
+def _pointer_jumps(ancestor: Index) -> tuple[Jump, ...]:
     """Rounds of pointer jumping over a tree given by each part's parent (-1 for
     the environments and unplaced parts, whose frames are already known)."""
     jumps = []

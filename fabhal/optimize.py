@@ -1,4 +1,6 @@
-"""Small dense optimisation in numpy: the one method behind every solver step.
+"""Small dense optimisation in numpy (and LAPACK's Cholesky solve, from
+scipy.linalg, for systems of LAPACK_UNKNOWNS and more): the one method behind
+every solver step.
 
     minimise f(u)  subject to  c(u) = 0,  G u + h >= 0,  low <= u <= high
 
@@ -54,6 +56,11 @@ RESTORED = 1e-10  # largest |c| accepted as on the constraints (the caller's uni
 ACTIVE = 1e-6
 MODEL_REPAIRS = 40  # Newton: damping 1e-6 x 10^40 is far past any curvature
 RANK = 1e-9  # singular values below this fraction of the largest span no direction
+# from this many unknowns a positive definite system is solved by LAPACK's Cholesky
+# solve through scipy.linalg, whose import (0.3 s) then pays for itself: numpy's
+# Cholesky test and LU solve take 0.47 ms at 200 unknowns against 0.17 ms, 4.4 ms
+# at 400 against 0.95 ms (one BLAS thread); the gallery (up to 65 DoFs) never imports it
+LAPACK_UNKNOWNS = 200
 # A step or decrease test ends a least-squares search only while the model is
 # trusted this much (Levenberg-Marquardt damping at most this multiple of the
 # Gauss-Newton diagonal): a heavily damped step is short because of the damping,
@@ -610,11 +617,25 @@ def _rank(singular: Array) -> int:
 
 def _solve_spd(matrix: Array, rhs: Array) -> Array | None:
     """matrix^-1 rhs for a positive definite matrix; None for any other."""
+    if len(rhs) >= LAPACK_UNKNOWNS:
+        return _solve_spd_lapack(matrix, rhs)
     try:
         np.linalg.cholesky(matrix)  # the test of definiteness; numpy has no triangular solve
         return np.linalg.solve(matrix, rhs)
     except np.linalg.LinAlgError:  # not definite, or definite only to rounding (a pivot of 1e-17)
         return None
+
+
+def _solve_spd_lapack(matrix: Array, rhs: Array) -> Array | None:
+    """`_solve_spd` by LAPACK's Cholesky factorisation and its triangular solves
+    (numpy has no triangular solve, so it factors twice: Cholesky, then LU)."""
+    from scipy.linalg import lapack  # imported only for large problems: see LAPACK_UNKNOWNS
+
+    factor, info = lapack.dpotrf(matrix, lower=True, clean=False)
+    if info != 0:  # a pivot not positive: not definite
+        return None
+    solution, info = lapack.dpotrs(factor, rhs, lower=True)
+    return solution if info == 0 else None
 
 
 def _longest(problem: _Scaled, u: Array, step: Array) -> float:

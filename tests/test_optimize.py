@@ -12,7 +12,14 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.optimize import lsq_linear
 
-from fabhal.optimize import Linear, constrained_step, least_squares_objective, minimize, tangent_curvature
+from fabhal.optimize import (
+    LAPACK_UNKNOWNS,
+    Linear,
+    constrained_step,
+    least_squares_objective,
+    minimize,
+    tangent_curvature,
+)
 
 FREE = (np.full(2, -np.inf), np.full(2, np.inf))
 
@@ -145,6 +152,23 @@ def test_constrained_step_solves_the_kkt_system(seed: int) -> None:
 
 def test_constrained_step_refuses_a_model_that_is_not_convex() -> None:
     assert constrained_step(-np.eye(3), np.ones(3), np.zeros((0, 3)), np.zeros(0)) is None
+
+
+@pytest.mark.parametrize("n", [20, LAPACK_UNKNOWNS + 50])
+def test_large_and_small_systems_solve_alike(n: int) -> None:
+    """Below LAPACK_UNKNOWNS numpy solves the model's system, from it LAPACK's
+    Cholesky solve: both give H d = -g to 1e-9 relative (a condition number of
+    ~1e3 here, times rounding 1e-16), and both refuse an indefinite model."""
+    rng = np.random.default_rng(n)
+    basis = rng.normal(size=(n, n))
+    hessian = basis @ basis.T + n * np.eye(n)
+    gradient = rng.normal(size=n)
+    solved = constrained_step(hessian, gradient, np.zeros((0, n)), np.zeros(0))
+    assert solved is not None
+    np.testing.assert_allclose(hessian @ solved[0], -gradient, atol=1e-9 * np.abs(gradient).max())
+    saddle = hessian.copy()
+    saddle[n // 2, n // 2] = -1e6
+    assert constrained_step(saddle, gradient, np.zeros((0, n)), np.zeros(0)) is None
 
 
 @pytest.mark.parametrize("stop", [1e-3, 1e-6])
