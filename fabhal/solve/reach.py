@@ -1,5 +1,7 @@
 """When step 1 cannot bring the target to its requested frame: by how much,
-and what limits it (the parts' reach, or the target's requested rotation).
+and what limits it (the parts' reach, or the target's requested rotation)
+(W505); and when the settled hack hangs beside its request because what hangs
+from one hook comes to rest under it (W506).
 
 Out of reach means farther than a builder would place by eye (REACH_MM,
 REACH_DEG). To tell the two limits apart, the position alone is fitted from
@@ -17,7 +19,7 @@ import numpy as np
 
 from fabhal.diagnostics import Diagnostic, warning
 from fabhal.kinematics.frames import Array
-from fabhal.model import Model
+from fabhal.model import Joint, Model, Side
 from fabhal.solve import target as target_mod
 from fabhal.solve.steps import Problem, fit_target
 
@@ -85,13 +87,61 @@ def _what_limits(model: Model, goal: target_mod.TargetGoal, x: Array, frames: Ar
 def _support(model: Model, part: int, x: Array, frames: Array) -> tuple[str, Array]:
     """The environment the part hangs from along the tree, and the point of it
     that carries the hack (the environment side of that connection), in world."""
+    found = _support_side(model, part)
+    if found is None:
+        return model.parts[part].name, frames[part][:3, 3]
+    side, _ = found
+    return model.parts[side.part].name, model.connector_frame(side, x, frames)[:3, 3]
+
+
+def _support_side(model: Model, part: int) -> tuple[Side, Joint] | None:
+    """The environment's side of the connection the part hangs from along the
+    tree (and that connection), or None if no environment places it."""
     parent_edges = {model.tree_child[edge.joint]: edge for edge in model.tree}
     while part in parent_edges:
-        parent, _ = model.placed_sides(parent_edges[part])
+        edge = parent_edges[part]
+        parent, _ = model.placed_sides(edge)
         if model.parts[parent.part].environment:
-            return model.parts[parent.part].name, model.connector_frame(parent, x, frames)[:3, 3]
+            return parent, model.joints[edge.joint]
         part = parent.part
-    return model.parts[part].name, frames[part][:3, 3]
+    return None
 
 
-__all__ = ["REACH_DEG", "REACH_MM", "diagnose", "out_of_reach"]
+# environment primitives a hack hangs from at one point, free to swing every way
+POINT_SUPPORTS = ("hook", "hole")
+
+
+def hangs_aside(model: Model, goal: target_mod.TargetGoal, x: Array) -> Diagnostic | None:
+    """W506 for a settled hack whose target hangs farther than REACH_MM from its
+    request, where the request lies farther to the side of the one hook (or
+    ring) the hack hangs from than the target does by more than REACH_MM: what
+    hangs free from one point comes to rest with its centre of mass under it,
+    so no choice of the builder's brings the target over there. Only for a hack
+    that hangs from one point (no loops, nothing standing, the support's
+    connection not held rigid); the caller leaves out hacks that lean on the
+    environment, which may hold them aside."""
+    found = _support_side(model, goal.part)
+    if model.closures or model.standing or found is None:
+        return None
+    side, joint = found
+    if side.primitive.kind not in POINT_SUPPORTS or joint.held:
+        return None
+    frames = model.part_frames(x)
+    anchor = model.connector_frame(side, x, frames)[:3, 3]
+    requested, reached = goal.requested[:3, 3], target_mod.achieved(goal, frames)[:3, 3]
+    wanted, got = (float(np.linalg.norm((point - anchor)[:2])) for point in (requested, reached))
+    if np.linalg.norm(requested - reached) <= REACH_MM or wanted - got <= REACH_MM:
+        return None
+    place = ", ".join(f"{value:.0f}" for value in (*reached[:2], requested[2]))
+    return warning(
+        "W506",
+        f"the target hangs beside its request: the request is {wanted:.0f} mm to the side of "
+        f"`{joint.endpoint(side)}`, which the hack hangs from, and what hangs from one point comes "
+        f"to rest with its weight under it (here the target hangs {got:.0f} mm to its side)",
+        model.program.targets[0].span,
+        f"ask for a place under the support, such as ({place}) at the requested height, or hang the "
+        "target from a support above the request",
+    )
+
+
+__all__ = ["REACH_DEG", "REACH_MM", "diagnose", "hangs_aside", "out_of_reach"]

@@ -66,3 +66,49 @@ def test_a_rotation_the_holder_cannot_give_is_named(tmp_path: Path) -> None:
     assert "requested rotation is out of reach" in problem.message
     assert "at best the target is 0 mm and 40 degrees" in problem.message
     assert "within 0 mm of the requested position" in problem.help
+
+
+HUNG_FROM_A_CEILING_HOOK = """\
+environment ceiling = CeilingHook() at (0, 0, 1000)
+s = DoubleHook()
+ring = RingL()
+connect s.hook2 -- ceiling.hook{held}
+connect ring.ring -- s.hook1
+target ring at ({x}, 0, 850)
+"""
+
+
+def hangs_aside(tmp_path: Path, x: float, held: str = "") -> list:
+    path = tmp_path / "aside.fhl"
+    path.write_text(HUNG_FROM_A_CEILING_HOOK.format(x=x, held=held))
+    result = api.solve(path)
+    assert result.status == "solved"
+    return [d for d in result.diagnostics if d.code == "W506"]
+
+
+def test_a_request_beside_the_hook_it_hangs_from_is_said_so(tmp_path: Path) -> None:
+    """A ring on an S-hook on a ceiling hook screwed in at (0, 0): the hook's
+    arc (radius 25 mm) bottoms out straight under the screw, and what hangs
+    from it swings until its centre of mass is under that point; the ring's
+    frame is its centre, its centre of mass, so it hangs within a few mm of
+    x = y = 0 whatever the builder does. Asked for at x = 100 mm, the request
+    is 100 mm to the side of the support (to 3 mm: the arc's contact point) and
+    the target 0-5 mm; the help suggests the place under it, (0, 0, 850) to 5 mm."""
+    (aside,) = hangs_aside(tmp_path, 100.0)
+    assert aside.span is not None and aside.span.line == 6
+    wanted, got = map(
+        float, re.search(r"request is (\d+) mm .*hangs (\d+) mm to its side", aside.message).groups()
+    )
+    assert abs(wanted - 100.0) <= 3.0 and got <= 5.0
+    assert "`ceiling.hook`" in aside.message
+    x, y, z = map(float, re.search(r"such as \((-?\d+), (-?\d+), (-?\d+)\)", aside.help).groups())
+    assert abs(x) <= 5.0 and abs(y) <= 5.0 and z == 850.0
+
+
+def test_a_request_under_the_hook_or_a_rigid_support_is_not_said_to_hang_aside(tmp_path: Path) -> None:
+    """Asked for under the hook (x = 0), the ring hangs 36 mm below the request but
+    not beside it: no W506 (W505 tells the height). Taped to the ceiling hook
+    (`fixed`), the S-hook does not swing there, so hanging under it is not the
+    physics that holds the target and the warning is not given either."""
+    assert hangs_aside(tmp_path, 0.0) == []
+    assert hangs_aside(tmp_path, 100.0, held=" fixed") == []
