@@ -132,7 +132,7 @@ def hangs_aside(model: Model, goal: target_mod.TargetGoal, x: Array) -> Diagnost
     wanted, got = (float(np.linalg.norm((point - anchor)[:2])) for point in (requested, reached))
     if np.linalg.norm(requested - reached) <= REACH_MM or wanted - got <= REACH_MM:
         return None
-    place = ", ".join(f"{value:.0f}" for value in (*reached[:2], requested[2]))
+    place = ", ".join(str(round(float(value))) for value in (*reached[:2], requested[2]))  # never "-0"
     return warning(
         "W506",
         f"the target hangs beside its request: the request is {wanted:.0f} mm to the side of "
