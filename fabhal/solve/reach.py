@@ -109,34 +109,50 @@ def _support_side(model: Model, part: int) -> tuple[Side, Joint] | None:
 
 # environment primitives a hack hangs from at one point, free to swing every way
 POINT_SUPPORTS = ("hook", "hole")
+# and along a line (a closet rod): it swings about the line, its place along it chosen
+LINE_SUPPORTS = ("rod", "tube")
+# a line support steeper than this (its axis' horizontal part shorter) counts as a point
+STEEP_AXIS = 0.1
 
 
 def hangs_aside(model: Model, goal: target_mod.TargetGoal, x: Array) -> Diagnostic | None:
     """W506 for a settled hack whose target hangs farther than REACH_MM from its
-    request, where the request lies farther to the side of the one hook (or
-    ring) the hack hangs from than the target does by more than REACH_MM: what
-    hangs free from one point comes to rest with its centre of mass under it,
-    so no choice of the builder's brings the target over there. Only for a hack
-    that hangs from one point (no loops, nothing standing, the support's
-    connection not held rigid); the caller leaves out hacks that lean on the
-    environment, which may hold them aside."""
+    request, where the request lies farther to the side of the hook, ring or
+    rod the hack hangs from than the target does, by more than REACH_MM: what
+    hangs free from it comes to rest with its centre of mass under it (under a
+    rod: in the vertical plane through its axis; along it, where the hook is
+    placed), so no choice of the builder's brings the target over there. Only
+    for a hack that hangs from one support (no loops, nothing standing, the
+    support's connection not held rigid); the caller leaves out hacks that lean
+    on the environment, which may hold them aside."""
     found = _support_side(model, goal.part)
     if model.closures or model.standing or found is None:
         return None
     side, joint = found
-    if side.primitive.kind not in POINT_SUPPORTS or joint.held:
+    if side.primitive.kind not in POINT_SUPPORTS + LINE_SUPPORTS or joint.held:
         return None
     frames = model.part_frames(x)
     anchor = model.connector_frame(side, x, frames)[:3, 3]
+    along = np.zeros(2)  # the support's horizontal direction; none for a point
+    if side.primitive.kind in LINE_SUPPORTS:
+        axis = (frames[side.part] @ side.primitive.base_frame())[:2, 2]  # a rod lies along its z
+        along = axis / np.linalg.norm(axis) if np.linalg.norm(axis) > STEEP_AXIS else along
+
+    def aside(point: Array) -> Array:
+        """Horizontal offset from the support, across it."""
+        offset = (point - anchor)[:2]
+        return offset - (offset @ along) * along
+
     requested, reached = goal.requested[:3, 3], target_mod.achieved(goal, frames)[:3, 3]
-    wanted, got = (float(np.linalg.norm((point - anchor)[:2])) for point in (requested, reached))
+    wanted, got = (float(np.linalg.norm(aside(point))) for point in (requested, reached))
     if np.linalg.norm(requested - reached) <= REACH_MM or wanted - got <= REACH_MM:
         return None
-    place = ", ".join(str(round(float(value))) for value in (*reached[:2], requested[2]))  # never "-0"
+    under = requested[:2] - aside(requested) + aside(reached)  # the request, moved across under it
+    place = ", ".join(str(round(float(value))) for value in (*under, requested[2]))  # never "-0"
     return warning(
         "W506",
         f"the target hangs beside its request: the request is {wanted:.0f} mm to the side of "
-        f"`{joint.endpoint(side)}`, which the hack hangs from, and what hangs from one point comes "
+        f"`{joint.endpoint(side)}`, which the hack hangs from, and what hangs free from it comes "
         f"to rest with its weight under it (here the target hangs {got:.0f} mm to its side)",
         model.program.targets[0].span,
         f"ask for a place under the support, such as ({place}) at the requested height, or hang the "

@@ -112,3 +112,34 @@ def test_a_request_under_the_hook_or_a_rigid_support_is_not_said_to_hang_aside(t
     physics that holds the target and the warning is not given either."""
     assert hangs_aside(tmp_path, 0.0) == []
     assert hangs_aside(tmp_path, 100.0, held=" fixed") == []
+
+
+HUNG_FROM_A_ROD = """\
+environment rod = Rod(length: 500, radius: 5) at (0, 0, 1500) rot (90, 0, 90)
+s = DoubleHook()
+mug = Mug()
+connect s.hook2 -- rod
+connect mug.hook -- s.hook1
+target mug at (100, {y}, 1400)
+"""
+
+
+def test_a_request_beside_a_rod_is_said_so_and_one_along_it_is_not(tmp_path: Path) -> None:
+    """A mug on an S-hook on a rod lying along x at height 1500 (rot (90, 0, 90)
+    turns its z axis onto x). The hack swings about the rod, so its centre of
+    mass rests in the vertical plane y = 0 (the anchor, where the hook touches
+    the rod, lies within the rod's radius, 5 mm, of that plane); along the rod
+    the hook can be placed anywhere. Asked for at y = 80 mm: the request is
+    80 +- 5 mm to the side; the suggested place keeps x = 100 (along the rod)
+    and the height, and moves y to the side of the rod the mug's frame hangs on
+    (the mug's frame is not its centre of mass: within 40 mm, its radius). Asked
+    for at y = 0, the request is over the rod: no W506."""
+    path = tmp_path / "rod.fhl"
+    path.write_text(HUNG_FROM_A_ROD.format(y=80))
+    (aside,) = [d for d in api.solve(path).diagnostics if d.code == "W506"]
+    wanted = float(re.search(r"request is (\d+) mm to the side of `rod`", aside.message).group(1))
+    assert abs(wanted - 80.0) <= 5.0
+    x, y, z = map(float, re.search(r"such as \((-?\d+), (-?\d+), (-?\d+)\)", aside.help).groups())
+    assert x == 100.0 and abs(y) <= 40.0 and z == 1400.0
+    path.write_text(HUNG_FROM_A_ROD.format(y=0))
+    assert [d for d in api.solve(path).diagnostics if d.code == "W506"] == []
