@@ -387,7 +387,8 @@ def _solve_once(model: Model, options: SolveOptions, loop_start: Array | None) -
     frames = model.part_frames(x)
     if options.gravity and not settled.falls and not settled.contacts:  # nothing leans on the world
         aside = reach.hangs_aside(model, goal, x)
-        notes.extend([aside] if aside is not None else [])
+        if aside is not None:
+            notes.append(aside)
     diagnostics = [*notes, *(_fall_diagnostic(model, f) for f in settled.falls)]
     gap = closure_residual_mm(model, x)
     if gap > LOOP_KEPT_MM:

@@ -136,7 +136,8 @@ def hangs_aside(model: Model, goal: target_mod.TargetGoal, x: Array) -> Diagnost
     along = np.zeros(2)  # the support's horizontal direction; none for a point
     if side.primitive.kind in LINE_SUPPORTS:
         axis = (frames[side.part] @ side.primitive.base_frame())[:2, 2]  # a rod lies along its z
-        along = axis / np.linalg.norm(axis) if np.linalg.norm(axis) > STEEP_AXIS else along
+        length = float(np.linalg.norm(axis))
+        along = axis / length if length > STEEP_AXIS else along
 
     def aside(point: Array) -> Array:
         """Horizontal offset from the support, across it."""

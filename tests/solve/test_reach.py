@@ -78,12 +78,17 @@ target ring at ({x}, 0, 850)
 """
 
 
-def hangs_aside(tmp_path: Path, x: float, held: str = "") -> list:
+def aside_warnings(tmp_path: Path, text: str) -> list:
+    """The W506 warnings of a program, which must solve."""
     path = tmp_path / "aside.fhl"
-    path.write_text(HUNG_FROM_A_CEILING_HOOK.format(x=x, held=held))
+    path.write_text(text)
     result = api.solve(path)
     assert result.status == "solved"
     return [d for d in result.diagnostics if d.code == "W506"]
+
+
+def hangs_aside(tmp_path: Path, x: float, held: str = "") -> list:
+    return aside_warnings(tmp_path, HUNG_FROM_A_CEILING_HOOK.format(x=x, held=held))
 
 
 def test_a_request_beside_the_hook_it_hangs_from_is_said_so(tmp_path: Path) -> None:
@@ -134,12 +139,9 @@ def test_a_request_beside_a_rod_is_said_so_and_one_along_it_is_not(tmp_path: Pat
     and the height, and moves y to the side of the rod the mug's frame hangs on
     (the mug's frame is not its centre of mass: within 40 mm, its radius). Asked
     for at y = 0, the request is over the rod: no W506."""
-    path = tmp_path / "rod.fhl"
-    path.write_text(HUNG_FROM_A_ROD.format(y=80))
-    (aside,) = [d for d in api.solve(path).diagnostics if d.code == "W506"]
+    (aside,) = aside_warnings(tmp_path, HUNG_FROM_A_ROD.format(y=80))
     wanted = float(re.search(r"request is (\d+) mm to the side of `rod`", aside.message).group(1))
     assert abs(wanted - 80.0) <= 5.0
     x, y, z = map(float, re.search(r"such as \((-?\d+), (-?\d+), (-?\d+)\)", aside.help).groups())
     assert x == 100.0 and abs(y) <= 40.0 and z == 1400.0
-    path.write_text(HUNG_FROM_A_ROD.format(y=0))
-    assert [d for d in api.solve(path).diagnostics if d.code == "W506"] == []
+    assert aside_warnings(tmp_path, HUNG_FROM_A_ROD.format(y=0)) == []
