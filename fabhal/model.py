@@ -247,6 +247,46 @@ class Model:
             "ij,ij->i", fwd.twists[:, :3, 3], moves @ forces
         )
 
+    def load_hessian(self, x: Array, fwd: Forward, loads: Array) -> Array:
+        """(n_dofs, n_dofs): the exact second derivative by x of the work
+        potential of forces held constant in the world, sum f . X over forces f
+        at points X that move with their parts. loads: (n_parts, 3, 4), per part
+        the sum of f (x) (X, 1) over its forces (gravity: the weight times e_z
+        (x) the centre of mass). The gradient is <T_i[:3], M_i> with M_i the loads
+        DoF i moves and T_i its twist (`weighted_height_gradient`, `wrench_gradient`).
+
+        For a DoF j that moves i's part (j above i), the twist T_i turns with the
+        part, dT_i/dx_j = T_j T_i - T_i T_j, and the points of M_i move by T_j:
+        H_ij = <(T_j T_i)[:3], M_i> = <T_j[:3], M_i T_i^T>, one (n, 12) x (12, n)
+        product. DoFs of one connection side move one part through one connector
+        frame L (W: that part's frame): on a parent side H_ik = <W L_ik inv(W L),
+        M_i> (L_ik: the second derivative of L); a child side hangs its part from
+        inv(L), whose second derivative gives <U_k U_i + U_i U_k - W L_ik inv(W L),
+        M_i> (U: the side's own twists, `Forward.own_twists`). DoFs off the tree
+        and DoFs on separate branches: 0."""
+        assert fwd.twists is not None and fwd.own_twists is not None
+        layout = self.layout
+        n = layout.n_dofs
+        twists = fwd.twists
+        carried = (layout.moves.astype(float) @ loads.reshape(len(loads), 12)).reshape(n, 3, 4)
+        turned = (carried @ twists.transpose(0, 2, 1)).reshape(n, 12)  # M_i T_i^T
+        mixed = twists[:, :3, :].reshape(n, 12) @ turned.T  # [j, i] = <T_j[:3], M_i T_i^T>
+        above = layout.moves[:, layout.dof_part] & (layout.dof_side[:, None] != layout.dof_side[None, :])
+        hessian = np.where(above, mixed, 0.0)
+        hessian = hessian + hessian.T
+        first, second, curvature = layout.local_second_derivatives(x)
+        sign = layout.tree_sign[first]
+        on_part = fwd.frames[layout.dof_part[first]]
+        placed = on_part @ fwd.local[layout.dof_side[first]]
+        change = sign[:, None, None] * (on_part @ curvature @ invert(placed))
+        own_i, own_k = fwd.own_twists[first], fwd.own_twists[second]
+        change += (sign < 0)[:, None, None] * (own_k @ own_i + own_i @ own_k)
+        same_side = np.einsum("pab,pab->p", change[:, :3, :], carried[first])
+        hessian[first, second] += same_side
+        off_diagonal = first != second
+        hessian[second[off_diagonal], first[off_diagonal]] += same_side[off_diagonal]
+        return hessian
+
     def connection_points(self, fwd: Forward) -> Array:
         """(n_joints, 3) mm, world: where each connection touches (its b side's connector)."""
         part_b = np.array([j.b.part for j in self.joints], dtype=int)
@@ -306,6 +346,32 @@ class SideGroup:
         steps[1::2][np.arange(k), np.arange(k)] = _STEP
         steps[2::2][np.arange(k), np.arange(k)] = -_STEP
         return steps
+
+    @cached_property
+    def curvature_probes(self) -> tuple[Array, Array, Array]:
+        """Central second differences of the formula: (R, k) probe steps (the
+        point first), (P, R) weights that turn the R values into the P second
+        derivatives d2/dx_a dx_b, a <= b, and (P, 2) the pairs (a, b)."""
+        k = self.dofs.shape[1]
+        pairs = [(a, b) for a in range(k) for b in range(a, k)]
+        steps: list[Array] = [np.zeros(k)]
+        weights = []
+        for a, b in pairs:
+            first = len(steps)
+            if a == b:  # (f(+h) - 2 f + f(-h)) / h^2
+                steps += [_CURVATURE_STEP * np.eye(k)[a], -_CURVATURE_STEP * np.eye(k)[a]]
+                combination = {0: -2.0, first: 1.0, first + 1: 1.0}
+                scale = _CURVATURE_STEP**2
+            else:  # (f(+a+b) - f(+a-b) - f(-a+b) + f(-a-b)) / 4h^2
+                for sa, sb in ((1, 1), (1, -1), (-1, 1), (-1, -1)):
+                    steps.append(_CURVATURE_STEP * (sa * np.eye(k)[a] + sb * np.eye(k)[b]))
+                combination = {first: 1.0, first + 1: -1.0, first + 2: -1.0, first + 3: 1.0}
+                scale = 4 * _CURVATURE_STEP**2
+            row = np.zeros(1 + 2 * k + 4 * (len(pairs) - k))
+            for r, w in combination.items():
+                row[r] = w / scale
+            weights.append(row)
+        return np.array(steps), np.array(weights).reshape(len(pairs), len(steps)), np.array(pairs, dtype=int)
 
     @cached_property
     def probe_params(self) -> dict[str, Array]:
@@ -376,6 +442,25 @@ class ChainLayout:
                 derivatives[group.dofs.ravel()] = derivative.reshape(n * k, 4, 4)
         return frames, derivatives
 
+    def local_second_derivatives(self, x: Array) -> tuple[Index, Index, Array]:
+        """For each pair of DoFs (i, k), i <= k, of one connection side: i, k and
+        (P, 4, 4) d2(connector frame in its part)/dx_i dx_k, by central second
+        differences of the closed-form formulas (`SideGroup.curvature_probes`;
+        error ~1e-8 relative)."""
+        firsts, seconds, values = [], [], []
+        for group in self.groups:
+            if not group.dofs.shape[1]:
+                continue
+            steps, weights, pairs = group.curvature_probes
+            probes = x[group.dofs][:, None, :] + steps  # (n, R, k)
+            frames = group.probe_base @ group.formula(group.probe_params, probes)  # (n, R, 4, 4)
+            values.append(np.einsum("pr,nrij->npij", weights, frames).reshape(-1, 4, 4))
+            firsts.append(group.dofs[:, pairs[:, 0]].ravel())
+            seconds.append(group.dofs[:, pairs[:, 1]].ravel())
+        if not values:
+            return np.zeros(0, dtype=int), np.zeros(0, dtype=int), np.zeros((0, 4, 4))
+        return np.concatenate(firsts), np.concatenate(seconds), np.concatenate(values)
+
     def closure_worlds(self, local: Array, frames: Array) -> tuple[Array, Array]:
         """(k, 4, 4) world frames of each loop's a connector (with the offset) and b connector,
         from every side's connector in its part (`local_frames`) and the part frames."""
@@ -384,6 +469,8 @@ class ChainLayout:
 
 
 _STEP = 1e-6  # central differences of one connector formula: error ~1e-12 relative
+# its second differences: rounding ~1e-16 x 1000 mm / h^2 = 1e-7 mm, truncation ~h^2 / 12 relative
+_CURVATURE_STEP = 1e-3
 
 
 def _chain_layout(model: Model) -> ChainLayout:

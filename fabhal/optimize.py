@@ -111,6 +111,8 @@ class _Scaled:
     scale: Array
     low: Array
     high: Array
+    # the objective's Hessian in closed form (unscaled variables), if it has one
+    hessian: Callable[[Array], Array] | None = None
     evaluations: int = 0
 
     @classmethod
@@ -122,10 +124,11 @@ class _Scaled:
         equality: Equality | None,
         linear: Linear | None,
         scale: Array | None,
+        hessian: Callable[[Array], Array] | None = None,
     ) -> _Scaled:
         """The problem in scaled variables (scale None: unscaled)."""
         factors = np.ones(len(low)) if scale is None else np.asarray(scale, dtype=float)
-        return cls(objective, equality, linear, factors, low * factors, high * factors)
+        return cls(objective, equality, linear, factors, low * factors, high * factors, hessian)
 
     def evaluate(self, u: Array) -> tuple[float, Array, Array | None]:
         self.evaluations += 1
@@ -175,6 +178,7 @@ def minimize(
     curvature: Array | None = None,
     stalled: Callable[[list[float]], bool] | None = None,
     max_step: float = np.inf,
+    exact_hessian: Callable[[Array], Array] | None = None,
 ) -> Result:
     """Minimise from `start` (clipped to the bounds, projected onto c = 0).
 
@@ -182,16 +186,18 @@ def minimize(
     lowers f by at most `ftol` * |f| or moves no scaled variable more than
     `xtol`, when f <= `stop_below`, or at the limits. Bounds may be infinite.
     With `measure_curvature`, BFGS starts from the Hessian of the Lagrangian
-    by finite differences (one gradient per variable) instead of a multiple of
-    the identity: worth it where the curvature differs a lot between variables
-    (a stiff friction term beside a slow swing) and iterations are dear; or
+    (`exact_hessian`, the objective's in closed form, where there are no equality
+    constraints to add theirs; else by finite differences, one gradient per
+    variable) instead of a multiple of the identity: worth it where the
+    curvature differs a lot between variables (a stiff friction term beside a
+    slow swing) and iterations are dear; or
     from `curvature`, a previous result's matrix, when starting near where that
     one ended (it is measured again only if the line search fails).
     No step moves a scaled variable more than `max_step` (a trust radius: a
     nearly singular model proposes steps that take many halvings to shorten).
     `stalled` sees f after every accepted step and may end the search when
     the progress is no longer worth its cost (the caller's units and taste)."""
-    problem = _Scaled.of(objective, low, high, equality, linear, scale)
+    problem = _Scaled.of(objective, low, high, equality, linear, scale, exact_hessian)
     u = np.clip(np.asarray(start, dtype=float) * problem.scale, problem.low, problem.high)
     if not np.all(np.isfinite(u)):
         return _failure(problem, u, np.nan, 0)
@@ -512,15 +518,17 @@ def tangent_curvature(
     linear: Linear | None = None,
     scale: Array | None = None,
     deadline: float = np.inf,
+    exact_hessian: Callable[[Array], Array] | None = None,
 ) -> tuple[Array, Array]:
     """The curvature of f at x along the constraints active there (c = 0, the
     bounds x is on, the spacing at 0): eigenvalues of the Lagrangian's Hessian
     on their tangent space, ascending, in objective units per scaled unit
     squared, and the matching directions in x (columns). A negative one makes
-    x an unstable balance, and its direction is the way down. Past `deadline`
-    (the measurement takes a gradient per variable) nothing is measured: no
-    values, no directions."""
-    problem = _Scaled.of(objective, low, high, equality, linear, scale)
+    x an unstable balance, and its direction is the way down. `exact_hessian`: the
+    objective's in closed form, used without equality constraints; else
+    measured, and past `deadline` (the measurement takes a gradient per
+    variable) nothing is: no values, no directions."""
+    problem = _Scaled.of(objective, low, high, equality, linear, scale, exact_hessian)
     u = np.asarray(x, dtype=float) * problem.scale
     _, gradient, _ = problem.evaluate(u)
     _, a = problem.constraints(u)
@@ -566,7 +574,11 @@ def _lagrangian_hessian(
     bounds. The loops' multipliers come from `rows` (the active constraints, the
     loops first) when given, else from the loops alone. The default step is in
     scaled units (mm): the friction smoothing is 0.5 mm, the swings far longer.
-    One gradient per variable: None when the deadline passes on the way."""
+    One gradient per variable: None when the deadline passes on the way.
+    Without equality constraints the objective's closed-form Hessian, if it
+    has one, is the Lagrangian's (bounds and linear rows add no curvature)."""
+    if problem.hessian is not None and problem.equality is None:
+        return problem.hessian(u / problem.scale) / np.outer(problem.scale, problem.scale)
     active = a if rows is None else rows
     multipliers = np.linalg.lstsq(active.T, gradient, rcond=None)[0][: len(a)] if len(active) else np.zeros(0)
     base = gradient - a.T @ multipliers

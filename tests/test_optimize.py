@@ -207,6 +207,35 @@ def test_a_known_hessian_starts_bfgs_at_newton() -> None:
     assert result.iterations <= 2 and np.allclose(result.x, target, atol=1e-10)
 
 
+def test_a_closed_form_hessian_replaces_the_measurement() -> None:
+    """Given the objective's Hessian, BFGS starts from it (the Newton step on a
+    quadratic) and the curvature is read from it: one evaluation each, not one
+    more per variable; with an equality constraint (whose curvature it lacks)
+    the Lagrangian's is still measured."""
+    matrix = np.array([[4.0, 1.0], [1.0, 3.0]])
+    target = np.array([0.5, -2.0])
+    calls = []
+
+    def quadratic(x: np.ndarray) -> tuple[float, np.ndarray, None]:
+        calls.append(x)
+        d = x - target
+        return 0.5 * float(d @ matrix @ d), matrix @ d, None
+
+    result = minimize(
+        quadratic, np.zeros(2), *FREE, gtol=1e-12, measure_curvature=True, exact_hessian=lambda x: matrix
+    )
+    assert result.iterations <= 2 and np.allclose(result.x, target, atol=1e-10)
+    calls.clear()
+    values, _ = tangent_curvature(quadratic, np.zeros(2), *FREE, exact_hessian=lambda x: matrix)
+    assert len(calls) == 1
+    assert values == pytest.approx(np.linalg.eigvalsh(matrix), abs=1e-12)
+    calls.clear()
+    circle, _ = tangent_curvature(
+        height, np.array([0.0, 1.0]), *FREE, equality=unit_circle, exact_hessian=lambda x: np.zeros((2, 2))
+    )
+    assert circle == pytest.approx([-1.0], abs=1e-4)  # measured: the circle's curvature counts
+
+
 def test_stalled_ends_the_search() -> None:
     result = minimize(
         least_squares_objective(rosenbrock_residual),

@@ -38,6 +38,7 @@ from fabhal.kinematics.frames import Array
 from fabhal.model import Model
 from fabhal.optimize import least_squares_objective
 from fabhal.solve import target as target_mod
+from fabhal.solve.energy import Energy
 from fabhal.solve.forces import friction_slides, slide_dofs
 from fabhal.solve.steps import Problem, residual_stalled, unbalanced_force
 
@@ -71,7 +72,7 @@ def choices(problem: Problem) -> Index:
 def aim(
     problem: Problem,
     x: Array,
-    energy: Callable[[Array], tuple[float, Array]],
+    energy: Energy,
     goal: target_mod.TargetGoal,
     weight: float,
     chosen: Index,
@@ -85,23 +86,34 @@ def aim(
     low, high = (bound[free] for bound in model.bounds())
     leans = np.array([model.variables[int(free[k])].dof.lean for k in moving], dtype=bool)
 
-    def unbalanced(v: Array) -> Array:
+    def pressed(v: Array) -> tuple[Array, Array]:
         """(moving,) the generalised force on each DoF gravity moves, over the
-        weight per mm; along a loop, less what the loop's constraint carries; on
-        an end of its range, only what pushes it back inside (but all of it on a
-        lean's end: E509)."""
+        weight per mm; along a loop, less what the loop's constraint carries.
+        And which of them an end of its range carries: pressed onto it (but
+        not a lean's end: nothing real holds it there, E509)."""
         force = energy(problem.full(v))[1][free][moving] / per_mm[moving] / weight
         if model.closures:
             force = unbalanced_force(force, (problem.closure_jacobian(v) / per_mm)[:, moving])
-        # pressed onto an end, the end carries it; not a lean's (nothing real holds it there)
         at_low = (v[moving] <= low[moving]) & ~leans
         at_high = (v[moving] >= high[moving]) & ~leans
-        force[at_low & (force > 0)] = 0.0
-        force[at_high & (force < 0)] = 0.0
+        return force, (at_low & (force > 0)) | (at_high & (force < 0))
+
+    def unbalanced(v: Array) -> Array:
+        """The force left once the ends have carried their share."""
+        force, carried = pressed(v)
+        force[carried] = 0.0
         return force
 
+    # without loops the force's derivative is the energy's Hessian (closed form where known)
+    exact = None if model.closures else problem.free_hessian(energy)
+
     def differenced(v: Array, force: Array) -> Array:
-        """The force's derivative by forward differences of the energy's exact gradient."""
+        """The force's derivative: rows of the energy's Hessian, or else forward
+        differences of its exact gradient (a gradient per DoF)."""
+        if exact is not None:
+            change = exact(v)[moving] / per_mm[moving, None] / weight
+            change[pressed(v)[1]] = 0.0
+            return change
         change = np.empty((len(force), len(v)))
         for k in range(len(v)):
             step = DIFFERENCE_MM / per_mm[k]

@@ -36,6 +36,7 @@ from fabhal.optimize import (
 )
 from fabhal.solve import target as target_mod
 from fabhal.solve.contacts import Pairs, penetration
+from fabhal.solve.energy import Energy
 from fabhal.solve.forces import Slide, slide_dofs, weight_newtons
 from fabhal.solve.spacing import Spacing, spacing_jacobian, spacing_values
 
@@ -145,6 +146,7 @@ class Problem:
         measure_curvature: bool = False,
         curvature: Array | None = None,
         stalled: Callable[[list[float]], bool] | None = None,
+        hessian: Callable[[Array], Array] | None = None,
     ) -> Result:
         """The optimiser on this problem: bounds, loops, spacing, millimetres, time limit."""
         low, high, setting = self._optimiser_setting()
@@ -163,15 +165,30 @@ class Problem:
             curvature=curvature,
             stalled=stalled,
             max_step=MAX_STEP_MM,
+            exact_hessian=hessian,
         )
 
-    def curvature(self, energy: Callable[[Array], tuple[float, Array]], v: Array) -> tuple[Array, Array]:
+    def curvature(self, energy: Energy, v: Array) -> tuple[Array, Array]:
         """The energy's curvature at v along the active constraints: eigenvalues
         (joules per mm of motion squared, ascending) and directions in v."""
         low, high, setting = self._optimiser_setting()
         return tangent_curvature(
-            _free_objective(self, energy), v, low, high, **setting, deadline=self.deadline
+            _free_objective(self, energy),
+            v,
+            low,
+            high,
+            **setting,
+            deadline=self.deadline,
+            exact_hessian=self.free_hessian(energy),
         )
+
+    def free_hessian(self, energy: Energy) -> Callable[[Array], Array] | None:
+        """The energy's Hessian over the free DoFs (None where it has no closed form)."""
+        whole = energy.hessian
+        if whole is None:
+            return None
+        block = np.ix_(self.free, self.free)
+        return lambda v: whole(self.full(v))[block]
 
     def out_of_time(self) -> bool:
         return time.monotonic() > self.deadline
@@ -311,8 +328,9 @@ _fit_stalled = partial(residual_stalled, steps=FIT_STALL_STEPS, gain_mm=GOOD_FIT
 # ---------------------------------------------------------------- step 2
 
 
-def potential(model: Model, masses: Array, centres: Array) -> Callable[[Array], tuple[float, Array]]:
-    """U(x) = sum of m g z of each part's centre of mass, in joules, and dU/dx.
+def potential(model: Model, masses: Array, centres: Array) -> Energy:
+    """U(x) = sum of m g z of each part's centre of mass, in joules, dU/dx and
+    its exact Hessian (the weights as loads: `Model.load_hessian`).
 
     masses: (n_parts,) grams (0 for environments); centres: (n_parts, 3) mm in part frames."""
     weights = weight_newtons(masses) / 1000.0  # joules per mm of height
@@ -322,16 +340,24 @@ def potential(model: Model, masses: Array, centres: Array) -> Callable[[Array], 
         heights = np.einsum("pj,pj->p", fwd.frames[:, 2, :3], centres) + fwd.frames[:, 2, 3]
         return float(weights @ heights), model.weighted_height_gradient(fwd, weights, centres)
 
-    return energy
+    def hessian(x: Array) -> Array:
+        fwd = model.forward(x, with_twists=True)
+        loads = np.zeros((len(weights), 3, 4))  # e_z (x) (centre, 1), times the weight
+        world = np.einsum("pij,pj->pi", fwd.frames[:, :3, :3], centres) + fwd.frames[:, :3, 3]
+        loads[:, 2, :3] = weights[:, None] * world
+        loads[:, 2, 3] = weights
+        return model.load_hessian(x, fwd, loads)
+
+    return Energy(energy, hessian)
 
 
 def with_friction(
     model: Model,
-    energy: Callable[[Array], tuple[float, Array]],
+    energy: Energy,
     slides: list[Slide],
     resistance: Array,
     origin: Array,
-) -> Callable[[Array], tuple[float, Array]]:
+) -> Energy:
     """The energy plus static friction on the slides (along rods, tubes and
     edges; over a floor).
 
@@ -351,21 +377,32 @@ def with_friction(
     group = np.repeat(np.arange(len(slides)), [len(slide.dofs) for slide in slides])
     lengths = mm_per_unit(model)[index]
     start = origin[index].copy()
+    same = group[:, None] == group[None, :]
+
+    def moved_and_root(x: Array) -> tuple[Array, Array]:
+        moved = (x[index] - start) * lengths
+        return moved, np.sqrt(np.bincount(group, moved**2, len(slides)) + FRICTION_SMOOTHING_MM**2)
 
     def total(x: Array) -> tuple[float, Array]:
         value, gradient = energy(x)
-        moved = (x[index] - start) * lengths
-        root = np.sqrt(np.bincount(group, moved**2, len(slides)) + FRICTION_SMOOTHING_MM**2)
+        moved, root = moved_and_root(x)
         gradient = gradient.copy()
         gradient[index] += (resistance / root)[group] * moved * lengths
         return value + float(resistance @ (root - FRICTION_SMOOTHING_MM)), gradient
 
-    return total
+    def hessian(x: Array) -> Array:
+        """r |s| on a slide s (mm): r (I / |s| - s s^T / |s|^3), in DoF units."""
+        moved, root = moved_and_root(x)
+        r, rooted = resistance[group], root[group]
+        block = same * (np.eye(len(index)) / rooted[:, None] - np.outer(moved, moved) / rooted[:, None] ** 3)
+        out = np.zeros((len(x), len(x)))
+        out[np.ix_(index, index)] = r[:, None] * block * np.outer(lengths, lengths)
+        return out
+
+    return energy.plus(total, hessian)
 
 
-def with_target_pull(
-    model: Model, energy: Callable[[Array], tuple[float, Array]], goal: target_mod.TargetGoal, strength: float
-) -> Callable[[Array], tuple[float, Array]]:
+def with_target_pull(model: Model, energy: Energy, goal: target_mod.TargetGoal, strength: float) -> Energy:
     """The energy plus a weak spring from the target to its requested frame:
     strength / 2 x |target residual|^2 (joules; the residual in mm, degrees as mm).
     Settling with it, then without it, picks among the configurations of equal
@@ -379,12 +416,12 @@ def with_target_pull(
         pull = target_mod.residual_jacobian(goal, model, fwd).T @ r
         return value + 0.5 * strength * float(r @ r), gradient + strength * pull
 
-    return pulled
+    return Energy(pulled)  # the residual's own curvature has no closed form here
 
 
 def settle(
     problem: Problem,
-    energy: Callable[[Array], tuple[float, Array]],
+    energy: Energy,
     start: Array,
     at_rest: float,
     curvature: Array | None = None,
@@ -405,6 +442,7 @@ def settle(
         measure_curvature=True,
         curvature=curvature,
         stalled=partial(_settle_stalled, stall=at_rest * SETTLE_STALL_MM),
+        hessian=problem.free_hessian(energy),
     )
 
 

@@ -1,0 +1,128 @@
+"""The settle's energy and its closed-form Hessian (fabhal/solve/energy.py)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from fabhal import api
+from fabhal.meshes import mass_properties
+from fabhal.solve import _mass_table, _weight
+from fabhal.solve.contacts import _inside, contact_pairs, with_contacts
+from fabhal.solve.energy import Energy
+from fabhal.solve.forces import friction_slides
+from fabhal.solve.steps import mm_per_unit, potential, with_friction
+from tests.conftest import REPO
+
+BASKET_ON_ONE_HANDLE = """\
+environment ceiling = CeilingHook() at (0, 0, 1000)
+basket = Basket()
+connect basket.rod1 -- ceiling.hook
+target basket.surface at (0, 0, 700)
+"""
+
+
+def test_gravitys_hessian_is_the_pendulums_stiffness(tmp_path: Path) -> None:
+    """A basket hung by one handle turns about the handle's axis (the rod's spin
+    in the hook). At rest its centre of mass is straight below that axis, at
+    D = hypot(124.5, 151.5) = 196.09 mm (the handle at x 124.5, z 252 of the
+    basket; the centre of mass at z 100.5). Turning by phi raises it as
+    U = -w D cos(phi): U'' = w D at rest, per degree squared w D (pi / 180)^2 =
+    0.4 kg x 9.81 / 1000 J/mm x 196.09 mm x 3.046e-4 = 2.344e-4 J. Tolerance
+    1e-5 relative: the settle stops within 0.01 degrees (cos changes 1e-8) and
+    the connector's second differences are good to ~1e-8."""
+    program = tmp_path / "basket.fhl"
+    program.write_text(BASKET_ON_ONE_HANDLE)
+    result = api.solve(program)
+    assert result.solution is not None
+    model, x = result.solution.model, result.solution.x
+    masses, centres = _mass_table(model)
+    hessian = potential(model, masses, centres).hessian
+    assert hessian is not None
+    spin = next(i for i, v in enumerate(model.variables) if v.name == "basket.rod1.spin")
+    mass_kg = mass_properties(model.parts[model.part_index("basket")].spec).mass_g / 1000.0
+    expected = mass_kg * 9.81 / 1000.0 * np.hypot(124.5, 151.5) * np.radians(1.0) ** 2
+    assert hessian(x)[spin, spin] == pytest.approx(expected, rel=1e-5)
+
+
+def _numeric_hessian(energy: Energy, x: np.ndarray, per_mm: np.ndarray) -> np.ndarray:
+    """Central differences of the exact gradient, 0.01 mm of motion per step:
+    rounding in the gradient (its twists are differences themselves, ~1e-10)
+    dominates below that, truncation above (the friction's 0.5 mm smoothing)."""
+    columns = []
+    for i in range(len(x)):
+        step = np.zeros(len(x))
+        step[i] = 1e-2 / per_mm[i]
+        columns.append((energy(x + step)[1] - energy(x - step)[1]) / (2 * step[i]))
+    return np.array(columns).T
+
+
+MUG_BY_A_WALL = """\
+environment rod = Rod(length: 500, radius: 2) at (0, 0, 300) rot (90, 0, 90)
+environment wall = Surface(length: 800, width: 600) at (0, 45, 0) rot (90, 0, 0)
+mug = Mug()
+connect mug.hook -- rod
+target mug.hook at (0, 0, 250) rot (0, 0, 90)
+"""
+
+
+@pytest.mark.parametrize(
+    "program",
+    [
+        "clip_light_m",  # hooks, rings and a clip: DoFs on parent and child sides, two per side
+        "reading_nook",  # deep, two loops (their DoFs off the tree), slides held by friction
+        MUG_BY_A_WALL,  # the mug's spring against a wall's flat face
+    ],
+    ids=["clip_light_m", "reading_nook", "mug_by_a_wall"],
+)
+def test_the_settle_energys_hessian_matches_differences_of_its_gradient(tmp_path: Path, program: str) -> None:
+    """Gravity, the contacts' springs against the environment and friction on
+    every slide (with an origin 2 mm away, so it is not at its kink), at the
+    solved configuration moved off by up to 0.2 mm (contacts stay touching).
+    Against a flat face the springs' Hessian is exact (a plane's distance is
+    linear, and the grid interpolates it exactly). Where a face bends (the
+    paper towel roll touches the wall by its mesh's edge, where the grid's
+    normal turns) the obstacle's curvature is left out, as in Gauss-Newton,
+    and differences across the points' kinks are no reference either.
+    Tolerance 1e-4 of the largest entry, in mm of motion: the differences
+    are good to ~1e-5 of it (measured 1e-7 against the wall, 4e-5 on the nook)."""
+    path = REPO / "programs" / f"{program}.fhl"
+    if "\n" in program:
+        path = tmp_path / "hack.fhl"
+        path.write_text(program)
+    result = api.solve(path)
+    assert result.solution is not None
+    model = result.solution.model
+    per_mm = mm_per_unit(model)
+    x = result.solution.x + np.random.default_rng(3).uniform(-0.2, 0.2, len(per_mm)) / per_mm
+    masses, centres = _mass_table(model)
+    weight = _weight(masses)
+    pairs = contact_pairs(model)
+    world = pairs.against({i for i, part in enumerate(model.parts) if part.environment})
+    energy = with_contacts(model, potential(model, masses, centres), world, weight)
+    slides = friction_slides(model)
+    if slides:
+        origin = x + 2.0 / per_mm
+        energy = with_friction(model, energy, slides, np.full(len(slides), 0.3 * weight), origin)
+    assert energy.hessian is not None
+    in_mm = 1.0 / np.outer(per_mm, per_mm)
+    numeric = _numeric_hessian(energy, x, per_mm) * in_mm
+    exact = energy.hessian(x) * in_mm
+    np.testing.assert_allclose(exact, numeric, atol=1e-4 * np.abs(numeric).max())
+    np.testing.assert_array_equal(exact, exact.T)
+    if "wall" in program:
+        assert len(_inside(model, model.forward(x), world).depth)  # the spring is in the sum
+
+
+def test_a_sum_knows_its_hessian_only_when_every_term_does() -> None:
+    """Springs against a movable obstacle have none here: the sum has none, and
+    the optimiser differences the gradient instead."""
+    quadratic = Energy(lambda x: (float(x @ x), 2 * x), lambda x: 2 * np.eye(len(x)))
+    unknown = Energy(lambda x: (float(x @ x), 2 * x))
+    x = np.ones(3)
+    assert quadratic.plus(lambda u: (0.0, u), lambda u: np.eye(len(u))).hessian is not None
+    assert quadratic.plus(lambda u: (0.0, u), lambda u: np.eye(len(u))).hessian(x)[0, 0] == 3.0  # type: ignore[misc]
+    assert unknown.plus(lambda u: (0.0, u), lambda u: np.eye(len(u))).hessian is None
+    assert quadratic.plus(lambda u: (0.0, u), None).hessian is None
