@@ -287,6 +287,62 @@ class Model:
         hessian[second[off_diagonal], first[off_diagonal]] += same_side[off_diagonal]
         return hessian
 
+    def closure_hessian(self, x: Array, fwd: Forward, weights: Array) -> Array:
+        """(n_dofs, n_dofs): the exact second derivative by x of sum_k <weights[k],
+        E_k[:3, :]>, E_k the loop's error frame (`closure_errors`) and weights
+        (n_closures, 3, 4): any linear function of the closure residuals, such as
+        the loops' multipliers times their constraints.
+
+        With E = inv(A) B (A, B: the world frames of the loop's a connector with
+        its offset and of its b connector), <W, E> = trace(G), G = B W^T inv(A)
+        (W padded to 4 x 4). DoF i turns B by its twist Tb_i and A by Ta_i, so the
+        first derivative is trace(D_i G), D_i = Tb_i - Ta_i = c_i U_i (U: the DoF's
+        own twist, c: `closure_coefficients`), and the second
+        H_ij = c_i trace(dU_i/dx_j G) + trace(D_i (Tb_j G - G Ta_j)), where
+        dU_i/dx_j = [T_j, U_i] when j moves i's part, and on one connection side
+        the connector's second derivative as well (as in `load_hessian`)."""
+        assert fwd.twists is not None and fwd.own_twists is not None
+        assert fwd.closure_a_inverse is not None and fwd.closure_b is not None
+        layout = self.layout
+        n = layout.n_dofs
+        twists, own = fwd.twists, fwd.own_twists
+        a_side, a_part, b_side, b_part = layout.closure_sides
+        first, second, curvature = layout.local_second_derivatives(x)
+        on_part = fwd.frames[layout.dof_part[first]]
+        # dU_i/dx_k on one side, less the turning of its part (counted with `above`):
+        # W L_ik inv(W L) - U_i U_k
+        bent = on_part @ curvature @ invert(on_part @ fwd.local[layout.dof_side[first]])
+        same_ik = bent - own[first] @ own[second]
+        same_ki = bent - own[second] @ own[first]
+        above = layout.moves[:, layout.dof_part]  # [j, i]: j moves the part of i's side
+        hessian = np.zeros((n, n))
+        for k in range(len(a_side)):
+            padded = np.zeros((4, 4))
+            padded[:3] = weights[k]
+            g = fwd.closure_b[k] @ padded.T @ fwd.closure_a_inverse[k]
+            coefficient = layout.closure_coefficients[k]
+            moves_a = layout.moves[:, a_part[k]] | (layout.dof_side == a_side[k])
+            moves_b = layout.moves[:, b_part[k]] | (layout.dof_side == b_side[k])
+            # how each DoF turns the a and b frames: its tree twist, or its own side's twist
+            turn_a = (
+                np.where(layout.dof_side[:, None, None] == a_side[k], own, twists) * moves_a[:, None, None]
+            )
+            turn_b = (
+                np.where(layout.dof_side[:, None, None] == b_side[k], own, twists) * moves_b[:, None, None]
+            )
+            change = coefficient[:, None, None] * own  # D_i
+            moved = turn_b @ g - g @ turn_a  # (n, 4, 4): X_j = Tb_j G - G Ta_j
+            loop = change.reshape(n, 16) @ moved.transpose(0, 2, 1).reshape(n, 16).T  # trace(D_i X_j)
+            commutator = own @ g - g @ own  # U_i G - G U_i: trace([T_j, U_i] G) = trace(T_j (U_i G - G U_i))
+            turning = twists.reshape(n, 16) @ commutator.transpose(0, 2, 1).reshape(n, 16).T  # [j, i]
+            loop += (coefficient[None, :] * np.where(above, turning, 0.0)).T
+            loop[first, second] += coefficient[first] * np.einsum("pab,ba->p", same_ik, g)
+            off_diagonal = first != second
+            other = coefficient[second] * np.einsum("pab,ba->p", same_ki, g)
+            loop[second[off_diagonal], first[off_diagonal]] += other[off_diagonal]
+            hessian += loop
+        return hessian
+
     def connection_points(self, fwd: Forward) -> Array:
         """(n_joints, 3) mm, world: where each connection touches (its b side's connector)."""
         part_b = np.array([j.b.part for j in self.joints], dtype=int)

@@ -71,6 +71,11 @@ TRUSTED_DAMPING = 1.0
 STATIONARY = 1e-6
 
 
+# the Hessian of f - multipliers . c at x (unscaled), given the equality constraints'
+# multipliers; None at an x where it has no closed form (it is measured there)
+LagrangianHessian = Callable[[Array, Array], Array | None]
+
+
 @dataclass(frozen=True)
 class Linear:
     """Linear inequalities G x + h >= 0."""
@@ -111,8 +116,9 @@ class _Scaled:
     scale: Array
     low: Array
     high: Array
-    # the objective's Hessian in closed form (unscaled variables), if it has one
-    hessian: Callable[[Array], Array] | None = None
+    # the Lagrangian's Hessian in closed form (unscaled variables; given the equality
+    # constraints' multipliers), if the objective and the constraints have one
+    hessian: LagrangianHessian | None = None
     evaluations: int = 0
 
     @classmethod
@@ -124,7 +130,7 @@ class _Scaled:
         equality: Equality | None,
         linear: Linear | None,
         scale: Array | None,
-        hessian: Callable[[Array], Array] | None = None,
+        hessian: LagrangianHessian | None = None,
     ) -> _Scaled:
         """The problem in scaled variables (scale None: unscaled)."""
         factors = np.ones(len(low)) if scale is None else np.asarray(scale, dtype=float)
@@ -178,7 +184,7 @@ def minimize(
     curvature: Array | None = None,
     stalled: Callable[[list[float]], bool] | None = None,
     max_step: float = np.inf,
-    exact_hessian: Callable[[Array], Array] | None = None,
+    exact_hessian: LagrangianHessian | None = None,
 ) -> Result:
     """Minimise from `start` (clipped to the bounds, projected onto c = 0).
 
@@ -186,9 +192,9 @@ def minimize(
     lowers f by at most `ftol` * |f| or moves no scaled variable more than
     `xtol`, when f <= `stop_below`, or at the limits. Bounds may be infinite.
     With `measure_curvature`, BFGS starts from the Hessian of the Lagrangian
-    (`exact_hessian`, the objective's in closed form, where there are no equality
-    constraints to add theirs; else by finite differences, one gradient per
-    variable) instead of a multiple of the identity: worth it where the
+    (`exact_hessian` in closed form, given x and the equality constraints'
+    multipliers; else by finite differences, one gradient per variable)
+    instead of a multiple of the identity: worth it where the
     curvature differs a lot between variables (a stiff friction term beside a
     slow swing) and iterations are dear; or
     from `curvature`, a previous result's matrix, when starting near where that
@@ -518,16 +524,16 @@ def tangent_curvature(
     linear: Linear | None = None,
     scale: Array | None = None,
     deadline: float = np.inf,
-    exact_hessian: Callable[[Array], Array] | None = None,
+    exact_hessian: LagrangianHessian | None = None,
 ) -> tuple[Array, Array]:
     """The curvature of f at x along the constraints active there (c = 0, the
     bounds x is on, the spacing at 0): eigenvalues of the Lagrangian's Hessian
     on their tangent space, ascending, in objective units per scaled unit
     squared, and the matching directions in x (columns). A negative one makes
-    x an unstable balance, and its direction is the way down. `exact_hessian`: the
-    objective's in closed form, used without equality constraints; else
-    measured, and past `deadline` (the measurement takes a gradient per
-    variable) nothing is: no values, no directions."""
+    x an unstable balance, and its direction is the way down. `exact_hessian`:
+    the Lagrangian's in closed form (given x and the equality multipliers);
+    without it the Hessian is measured, and past `deadline` (the measurement
+    takes a gradient per variable) nothing is: no values, no directions."""
     problem = _Scaled.of(objective, low, high, equality, linear, scale, exact_hessian)
     u = np.asarray(x, dtype=float) * problem.scale
     _, gradient, _ = problem.evaluate(u)
@@ -575,12 +581,14 @@ def _lagrangian_hessian(
     loops first) when given, else from the loops alone. The default step is in
     scaled units (mm): the friction smoothing is 0.5 mm, the swings far longer.
     One gradient per variable: None when the deadline passes on the way.
-    Without equality constraints the objective's closed-form Hessian, if it
-    has one, is the Lagrangian's (bounds and linear rows add no curvature)."""
-    if problem.hessian is not None and problem.equality is None:
-        return problem.hessian(u / problem.scale) / np.outer(problem.scale, problem.scale)
+    With a closed form (`_Scaled.hessian`) none is measured: bounds and
+    linear rows add no curvature, and the multipliers are the same in scaled
+    and unscaled variables."""
     active = a if rows is None else rows
     multipliers = np.linalg.lstsq(active.T, gradient, rcond=None)[0][: len(a)] if len(active) else np.zeros(0)
+    known = None if problem.hessian is None else problem.hessian(u / problem.scale, multipliers)
+    if known is not None:
+        return known / np.outer(problem.scale, problem.scale)
     base = gradient - a.T @ multipliers
     columns = []
     for i in range(len(u)):

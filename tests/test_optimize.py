@@ -208,10 +208,10 @@ def test_a_known_hessian_starts_bfgs_at_newton() -> None:
 
 
 def test_a_closed_form_hessian_replaces_the_measurement() -> None:
-    """Given the objective's Hessian, BFGS starts from it (the Newton step on a
-    quadratic) and the curvature is read from it: one evaluation each, not one
-    more per variable; with an equality constraint (whose curvature it lacks)
-    the Lagrangian's is still measured."""
+    """Given the Lagrangian's Hessian in closed form, BFGS starts from it (the
+    Newton step on a quadratic) and the curvature is read from it: one
+    evaluation each, not one more per variable; with an equality constraint
+    it is given the constraint's multipliers."""
     matrix = np.array([[4.0, 1.0], [1.0, 3.0]])
     target = np.array([0.5, -2.0])
     calls = []
@@ -222,18 +222,24 @@ def test_a_closed_form_hessian_replaces_the_measurement() -> None:
         return 0.5 * float(d @ matrix @ d), matrix @ d, None
 
     result = minimize(
-        quadratic, np.zeros(2), *FREE, gtol=1e-12, measure_curvature=True, exact_hessian=lambda x: matrix
+        quadratic, np.zeros(2), *FREE, gtol=1e-12, measure_curvature=True, exact_hessian=lambda x, m: matrix
     )
     assert result.iterations <= 2 and np.allclose(result.x, target, atol=1e-10)
     calls.clear()
-    values, _ = tangent_curvature(quadratic, np.zeros(2), *FREE, exact_hessian=lambda x: matrix)
+    values, _ = tangent_curvature(quadratic, np.zeros(2), *FREE, exact_hessian=lambda x, m: matrix)
     assert len(calls) == 1
     assert values == pytest.approx(np.linalg.eigvalsh(matrix), abs=1e-12)
+    # height on the unit circle, at the top: f = y, c = x.x - 1, grad f = lambda grad c gives
+    # lambda = 1/2, and the Lagrangian's Hessian 0 - lambda 2 I = -I: -1 along the circle
     calls.clear()
     circle, _ = tangent_curvature(
-        height, np.array([0.0, 1.0]), *FREE, equality=unit_circle, exact_hessian=lambda x: np.zeros((2, 2))
+        lambda x: (calls.append(x), height(x))[1],
+        np.array([0.0, 1.0]),
+        *FREE,
+        equality=unit_circle,
+        exact_hessian=lambda x, multipliers: -2.0 * multipliers[0] * np.eye(2),
     )
-    assert circle == pytest.approx([-1.0], abs=1e-4)  # measured: the circle's curvature counts
+    assert circle == pytest.approx([-1.0], abs=1e-12) and len(calls) == 1
 
 
 def test_stalled_ends_the_search() -> None:

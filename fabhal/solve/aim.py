@@ -104,16 +104,27 @@ def aim(
         force[carried] = 0.0
         return force
 
-    # without loops the force's derivative is the energy's Hessian (closed form where known)
-    exact = None if model.closures else problem.free_hessian(energy)
+    exact = problem.free_hessian(energy)
 
     def differenced(v: Array, force: Array) -> Array:
-        """The force's derivative: rows of the energy's Hessian, or else forward
-        differences of its exact gradient (a gradient per DoF)."""
+        """The force's derivative: from the Lagrangian's Hessian in closed form
+        where the energy has one, or else forward differences of its exact
+        gradient (a gradient per DoF). Along loops the force is the gradient
+        projected off the constraints' rows C (per mm, the moving DoFs), with
+        multipliers mu (force = g + C^T mu); its derivative is that projection
+        of the Lagrangian's Hessian (the multipliers lambda = -weight x mu), up
+        to a term in the force itself, which vanishes at rest."""
         if exact is not None:
-            change = exact(v)[moving] / per_mm[moving, None] / weight
-            change[pressed(v)[1]] = 0.0
-            return change
+            gradient = energy(problem.full(v))[1][free][moving] / per_mm[moving] / weight
+            rows = (problem.closure_jacobian(v) / per_mm)[:, moving] if model.closures else np.zeros((0, 0))
+            mu = np.linalg.lstsq(rows.T, -gradient, rcond=None)[0] if model.closures else np.zeros(0)
+            hessian = exact(v, -weight * mu)
+            if hessian is not None:
+                change = hessian[moving] / per_mm[moving, None] / weight
+                if model.closures:
+                    change = change - rows.T @ np.linalg.lstsq(rows.T, change, rcond=None)[0]
+                change[pressed(v)[1]] = 0.0
+                return change
         change = np.empty((len(force), len(v)))
         for k in range(len(v)):
             step = DIFFERENCE_MM / per_mm[k]

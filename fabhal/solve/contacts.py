@@ -301,13 +301,8 @@ def _stiffness(weight: float) -> float:
 
 def with_contacts(model: Model, energy: Energy, pairs: Pairs, weight: float) -> Energy:
     """The energy plus the contacts' springs. weight: the assembly's, joules per mm.
-
-    Their Hessian (against the environment; against movable parts none is
-    given): each spring k d^2 / 2 at depth d has k J J^T, J the depth's
-    derivative (the normal along each DoF's motion of the point), and its
-    push held in the world as a load (`Model.load_hessian`); the turning of
-    the normal as the point moves (the obstacle's curvature, d / radius of
-    the term kept) is left out, as in Gauss-Newton."""
+    Their Hessian is zero where no point is inside an obstacle, and not given
+    (None: measured) where one is (fabhal/solve/energy.py)."""
     if not pairs:
         return energy
     stiffness = _stiffness(weight)
@@ -325,25 +320,10 @@ def with_contacts(model: Model, energy: Energy, pairs: Pairs, weight: float) -> 
         loads = _on_parts(pairs.parts, pairs.obstacles, forces, moments, len(model.parts))
         return value + float(np.sum(spring)), gradient + model.wrench_gradient(fwd, *loads)
 
-    def hessian(x: Array) -> Array:
-        fwd = model.forward(x, with_twists=True)
-        assert fwd.twists is not None
-        touching = _inside(model, fwd, pairs)
-        n = len(x)
-        if not len(touching.depth):
-            return np.zeros((n, n))
-        _, slope = penalty(-touching.depth, stiffness)
-        owner = pairs.parts[touching.pair]
-        at = np.concatenate([touching.world, np.ones((len(owner), 1))], axis=1)  # (M, 4)
-        pushes = np.zeros((len(model.parts), 3, 4))
-        np.add.at(pushes, owner, (slope[:, None] * touching.normal)[:, :, None] * at[:, None, :])
-        # d depth / dx_i = -<T_i[:3], n (x) (X, 1)> on the points DoF i moves
-        normal_at = (touching.normal[:, :, None] * at[:, None, :]).reshape(-1, 12)
-        along = model.layout.moves[:, owner] * (fwd.twists[:, :3, :].reshape(n, 12) @ normal_at.T)
-        return model.load_hessian(x, fwd, pushes) + stiffness * (along @ along.T)
+    def hessian(x: Array) -> Array | None:
+        touching = _inside(model, model.forward(x, with_twists=True), pairs)
+        return None if len(touching.depth) else np.zeros((len(x), len(x)))
 
-    if np.any([not model.parts[o].environment for o in pairs.obstacles]):
-        return Energy(total)  # an obstacle that moves turns its normals: no closed form here
     return energy.plus(total, hessian)
 
 
