@@ -16,9 +16,10 @@ force on each DoF that gravity moves (projected along the loops, as the
 equilibrium check measures it: a fraction of the weight per mm of motion)
 times FORCE_AS_MM; the unknowns are all the free DoFs, the choices among
 them. Gauss-Newton on that least-squares problem (fabhal/optimize.py): the
-target's Jacobian exact, the force's by forward differences of the exact
-energy gradient (a gradient per DoF), kept up to date between those by
-Broyden's secant updates (one gradient per step); the force's
+target's Jacobian exact, the force's from the Lagrangian's Hessian (in
+closed form, fabhal/solve/energy.py; while a contact touches, by forward
+differences of the exact energy gradient, a gradient per DoF), kept up to
+date between those by Broyden's secant updates (one gradient per step); the force's
 weight is raised in stages (a stiff start is ill-conditioned and stalls).
 A force within the equilibrium tolerance costs about a millimetre. Its
 answer only proposes the choices: step 2 settles from it with them held
@@ -115,13 +116,15 @@ def aim(
         of the Lagrangian's Hessian (the multipliers lambda = -weight x mu), up
         to a term in the force itself, which vanishes at rest."""
         if exact is not None:
-            gradient = energy(problem.full(v))[1][free][moving] / per_mm[moving] / weight
-            rows = (problem.closure_jacobian(v) / per_mm)[:, moving] if model.closures else np.zeros((0, 0))
-            mu = np.linalg.lstsq(rows.T, -gradient, rcond=None)[0] if model.closures else np.zeros(0)
-            hessian = exact(v, -weight * mu)
+            rows, multipliers = None, np.zeros(0)
+            if model.closures:
+                gradient = energy(problem.full(v))[1][free][moving] / per_mm[moving] / weight
+                rows = (problem.closure_jacobian(v) / per_mm)[:, moving]
+                multipliers = -weight * np.linalg.lstsq(rows.T, -gradient, rcond=None)[0]
+            hessian = exact(v, multipliers)
             if hessian is not None:
                 change = hessian[moving] / per_mm[moving, None] / weight
-                if model.closures:
+                if rows is not None:
                     change = change - rows.T @ np.linalg.lstsq(rows.T, change, rcond=None)[0]
                 change[pressed(v)[1]] = 0.0
                 return change

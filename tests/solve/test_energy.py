@@ -15,6 +15,7 @@ from fabhal.solve.energy import Energy
 from fabhal.solve.forces import friction_slides
 from fabhal.solve.steps import Problem, mm_per_unit, potential, with_friction
 from tests.conftest import REPO
+from tests.solve.test_contacts import MUG_BY_A_WALL
 
 BASKET_ON_ONE_HANDLE = """\
 environment ceiling = CeilingHook() at (0, 0, 1000)
@@ -104,15 +105,6 @@ def test_the_lagrangians_hessian_matches_differences_of_its_gradient(program: st
     numeric = _numeric_jacobian(lagrangian_gradient, x, per_mm) * in_mm
     np.testing.assert_allclose(exact * in_mm, numeric, atol=1e-4 * np.abs(numeric).max())
     np.testing.assert_allclose(exact, exact.T, atol=1e-12 * np.abs(exact).max())
-
-
-MUG_BY_A_WALL = """\
-environment rod = Rod(length: 500, radius: 2) at (0, 0, 300) rot (90, 0, 90)
-environment wall = Surface(length: 800, width: 600) at (0, 45, 0) rot (90, 0, 0)
-mug = Mug()
-connect mug.hook -- rod
-target mug.hook at (0, 0, 250) rot (0, 0, 90)
-"""
 
 
 def test_while_a_spring_touches_the_hessian_is_measured(tmp_path: Path) -> None:
