@@ -274,11 +274,9 @@ class Model:
         above = layout.moves[:, layout.dof_part] & (layout.dof_side[:, None] != layout.dof_side[None, :])
         hessian = np.where(above, mixed, 0.0)
         hessian = hessian + hessian.T
-        first, second, curvature = layout.local_second_derivatives(x)
+        first, second, bent = self._connector_curvature(x, fwd)
         sign = layout.tree_sign[first]
-        on_part = fwd.frames[layout.dof_part[first]]
-        placed = on_part @ fwd.local[layout.dof_side[first]]
-        change = sign[:, None, None] * (on_part @ curvature @ invert(placed))
+        change = sign[:, None, None] * bent
         own_i, own_k = fwd.own_twists[first], fwd.own_twists[second]
         change += (sign < 0)[:, None, None] * (own_k @ own_i + own_i @ own_k)
         same_side = np.einsum("pab,pab->p", change[:, :3, :], carried[first])
@@ -307,11 +305,9 @@ class Model:
         n = layout.n_dofs
         twists, own = fwd.twists, fwd.own_twists
         a_side, a_part, b_side, b_part = layout.closure_sides
-        first, second, curvature = layout.local_second_derivatives(x)
-        on_part = fwd.frames[layout.dof_part[first]]
         # dU_i/dx_k on one side, less the turning of its part (counted with `above`):
         # W L_ik inv(W L) - U_i U_k
-        bent = on_part @ curvature @ invert(on_part @ fwd.local[layout.dof_side[first]])
+        first, second, bent = self._connector_curvature(x, fwd)
         same_ik = bent - own[first] @ own[second]
         same_ki = bent - own[second] @ own[first]
         above = layout.moves[:, layout.dof_part]  # [j, i]: j moves the part of i's side
@@ -321,15 +317,8 @@ class Model:
             padded[:3] = weights[k]
             g = fwd.closure_b[k] @ padded.T @ fwd.closure_a_inverse[k]
             coefficient = layout.closure_coefficients[k]
-            moves_a = layout.moves[:, a_part[k]] | (layout.dof_side == a_side[k])
-            moves_b = layout.moves[:, b_part[k]] | (layout.dof_side == b_side[k])
-            # how each DoF turns the a and b frames: its tree twist, or its own side's twist
-            turn_a = (
-                np.where(layout.dof_side[:, None, None] == a_side[k], own, twists) * moves_a[:, None, None]
-            )
-            turn_b = (
-                np.where(layout.dof_side[:, None, None] == b_side[k], own, twists) * moves_b[:, None, None]
-            )
+            turn_a = _turns(layout, fwd, a_side[k], a_part[k])
+            turn_b = _turns(layout, fwd, b_side[k], b_part[k])
             change = coefficient[:, None, None] * own  # D_i
             moved = turn_b @ g - g @ turn_a  # (n, 4, 4): X_j = Tb_j G - G Ta_j
             loop = change.reshape(n, 16) @ moved.transpose(0, 2, 1).reshape(n, 16).T  # trace(D_i X_j)
@@ -342,6 +331,15 @@ class Model:
             loop[second[off_diagonal], first[off_diagonal]] += other[off_diagonal]
             hessian += loop
         return hessian
+
+    def _connector_curvature(self, x: Array, fwd: Forward) -> tuple[Index, Index, Array]:
+        """For each pair of DoFs (i, k), i <= k, of one connection side: i, k and
+        W L_ik inv(W L), the second derivative of its connector frame L carried
+        into the world by its part's frame W (`load_hessian`, `closure_hessian`)."""
+        layout = self.layout
+        first, second, curvature = layout.local_second_derivatives(x)
+        on_part = fwd.frames[layout.dof_part[first]]
+        return first, second, on_part @ curvature @ invert(on_part @ fwd.local[layout.dof_side[first]])
 
     def connection_points(self, fwd: Forward) -> Array:
         """(n_joints, 3) mm, world: where each connection touches (its b side's connector)."""
@@ -591,6 +589,16 @@ def _chain_layout(model: Model) -> ChainLayout:
         np.array([j.offset for j in closures]).reshape(len(closures), 4, 4),
         coefficients,
     )
+
+
+def _turns(layout: ChainLayout, fwd: Forward, side: int, part: int) -> Array:
+    """(n_dofs, 4, 4): how each DoF turns the world frame of a loop's connector
+    (`side` on `part`): its tree twist if it moves the part, its own twist if it
+    is that side's, else nothing."""
+    assert fwd.twists is not None and fwd.own_twists is not None
+    own_side = (layout.dof_side == side)[:, None, None]
+    moves = (layout.moves[:, part] | (layout.dof_side == side))[:, None, None]
+    return np.where(own_side, fwd.own_twists, fwd.twists) * moves
 
 
 def _subtrees(model: Model) -> dict[int, set[int]]:

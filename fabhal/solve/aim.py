@@ -87,12 +87,16 @@ def aim(
     low, high = (bound[free] for bound in model.bounds())
     leans = np.array([model.variables[int(free[k])].dof.lean for k in moving], dtype=bool)
 
+    def weighed(v: Array) -> Array:
+        """(moving,) the energy's gradient on each DoF gravity moves, over the weight per mm."""
+        return energy(problem.full(v))[1][free][moving] / per_mm[moving] / weight
+
     def pressed(v: Array) -> tuple[Array, Array]:
         """(moving,) the generalised force on each DoF gravity moves, over the
         weight per mm; along a loop, less what the loop's constraint carries.
         And which of them an end of its range carries: pressed onto it (but
         not a lean's end: nothing real holds it there, E509)."""
-        force = energy(problem.full(v))[1][free][moving] / per_mm[moving] / weight
+        force = weighed(v)
         if model.closures:
             force = unbalanced_force(force, (problem.closure_jacobian(v) / per_mm)[:, moving])
         at_low = (v[moving] <= low[moving]) & ~leans
@@ -116,11 +120,11 @@ def aim(
         of the Lagrangian's Hessian (the multipliers lambda = -weight x mu), up
         to a term in the force itself, which vanishes at rest."""
         if exact is not None:
-            rows, multipliers = None, np.zeros(0)
+            rows: Array | None = None
+            multipliers: Array = np.zeros(0)
             if model.closures:
-                gradient = energy(problem.full(v))[1][free][moving] / per_mm[moving] / weight
                 rows = (problem.closure_jacobian(v) / per_mm)[:, moving]
-                multipliers = -weight * np.linalg.lstsq(rows.T, -gradient, rcond=None)[0]
+                multipliers = -weight * np.linalg.lstsq(rows.T, -weighed(v), rcond=None)[0].astype(float)
             hessian = exact(v, multipliers)
             if hessian is not None:
                 change = hessian[moving] / per_mm[moving, None] / weight
