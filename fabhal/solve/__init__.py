@@ -56,6 +56,9 @@ LOOP_KEPT_MM = 1e-3  # a result whose loops are open by more is never solved (E5
 # a result with a part this deep in another is never solved (E508): five times the
 # contact springs' give under the assembly's whole weight (fabhal/solve/contacts.py)
 OVERLAP_KEPT_MM = 1.0
+# settles repeated with more parts' contact springs on (`_settle`): each round adds
+# the pairs found inside each other
+LEANING_ROUNDS = 3
 EXTRA_STARTS = 3  # seeded random starts for step 1, besides the spread-out defaults
 # a random start whose loops take longer to close than this is dropped: on the gallery
 # those that close do so within 26 evaluations, and one that fails spends the whole budget
@@ -326,11 +329,6 @@ def _solve_once(model: Model, options: SolveOptions, loop_start: Array | None) -
     else:
         options.report("step 1: bringing the target to its frame")
         fit = fit_target(step1, goal, starts, pairs)
-    # the settle's contact springs: with the environment only. Between two movable
-    # parts they made the settles crawl (grazing contacts in a loop: the reading
-    # nook took 5000 evaluations instead of 300); step 1 keeps the parts apart and
-    # the result is checked for parts inside each other (E508)
-    world = pairs.against({i for i, part in enumerate(model.parts) if part.environment})
     x = step1.full(fit.v)
     # step 1 moves parts without their masses: only its frames can break
     _require_finite(
@@ -352,22 +350,22 @@ def _solve_once(model: Model, options: SolveOptions, loop_start: Array | None) -
         settled = (
             Settled(x, np.inf, (), ())
             if step1.out_of_time()
-            else _settle(step1, x, masses, centres, goal, world)
+            else _settle(step1, x, masses, centres, goal, pairs)
         )
         if fit.runner_up is not None and not step1.out_of_time():
             options.report("step 2: settling from another start")
             start = step1.full(fit.runner_up)
             # a plain settle to compare; the stability test and the turn only if it wins
-            other = _settle(step1, start, masses, centres, goal, world, thorough=False)
+            other = _settle(step1, start, masses, centres, goal, pairs, False, settled.leaning)
             settled, disagreement = _pick(
                 model, goal, settled, other, lambda s: _energy(model.part_frames(s.x), masses, centres)
             )
             if settled is other:
-                settled = _settle(step1, start, masses, centres, goal, world)
+                settled = _settle(step1, start, masses, centres, goal, pairs, leaning=other.leaning)
             if disagreement is not None:
                 notes.append(disagreement)
         if options.aim and not step1.out_of_time():
-            settled, aimed = _aimed(step1, settled, masses, centres, goal, pairs, world, options)
+            settled, aimed = _aimed(step1, settled, masses, centres, goal, pairs, options)
             notes.extend(aimed)
         if not settled.falls and not _at_rest(settled) and np.isfinite(settled.equilibrium or 0.0):
             notes.append(
@@ -442,13 +440,12 @@ def _aimed(
     centres: Array,
     goal: target_mod.TargetGoal,
     pairs: Pairs,
-    world: Pairs,
     options: SolveOptions,
 ) -> tuple[Settled, list[Diagnostic]]:
     """The settled result with the builder's choices aimed (fabhal/solve/aim.py)
-    if that ranks first (`_rank`) and leaves no part inside another (`pairs`:
-    all; `world`: those against the environment, the settle's), with a note
-    saying what was chosen; else the result as it was."""
+    if that ranks first (`_rank`) and leaves no part inside another, with a note
+    saying what was chosen; else the result as it was. The aim weighs the
+    contact springs that acted in the settled result."""
     model = step1.model
     chosen = aim_mod.choices(step1)
     # a result that falls apart is not aimed from (one that leans on a stop is: aiming may
@@ -458,7 +455,8 @@ def _aimed(
         return settled, []
     options.report("step 3: aiming the settings that stay put, for where the hack hangs")
     weight = _weight(masses)
-    energy = with_contacts(model, potential(model, masses, centres), world, weight)
+    springs = _springs(model, pairs, settled.leaning)
+    energy = with_contacts(model, potential(model, masses, centres), springs, weight)
     best = settled
     for _ in range(AIM_ROUNDS if not model.closures else 1):
         start = step1.full(aim_mod.aim(step1, best.x, energy, goal, weight, chosen))
@@ -470,7 +468,7 @@ def _aimed(
             # the aim itself came no nearer: settled from there it would not either (from a
             # result that leans on a stop, reaching rest is the gain, not nearness)
             break
-        aimed = _settle(step1, start, masses, centres, goal, world)
+        aimed = _settle(step1, start, masses, centres, goal, pairs, leaning=settled.leaning)
         ranks = [_rank(goal, model.part_frames(s.x), s) for s in (aimed, best)]
         inside = any(c.depth > OVERLAP_KEPT_MM for c in contacts_at(model, aimed.x, pairs, weight))
         if ranks[0] >= ranks[1] or inside:
@@ -567,6 +565,8 @@ class Settled:
     falls: tuple[Fall | Topple | Lean | Slip, ...]
     forces: Array | None = None  # (J, 3) N each connection carries there (see Solution)
     contacts: tuple[Contact, ...] = ()
+    # the movable parts whose contact springs acted between them (`_settle`)
+    leaning: frozenset[frozenset[int]] = frozenset()
 
 
 def _wrenches(
@@ -597,11 +597,59 @@ def _settle(
     goal: target_mod.TargetGoal,
     pairs: Pairs,
     thorough: bool = True,
+    leaning: frozenset[frozenset[int]] = frozenset(),
+) -> Settled:
+    """`_settle_with` the contact springs against the environment and between the
+    movable parts that `leaning` pairs. Where the result leaves two other movable
+    parts more than OVERLAP_KEPT_MM inside each other, it settles again from the
+    same start with their springs on too: the one then leans on the other, which
+    carries it. Not parts already inside each other at the start: placed so (two
+    objects stood on one spot), no motion led there, and the springs would push
+    them apart any way (E508 says it). Springs between movable parts are
+    switched on only where needed: on everywhere, grazing contacts in a loop made
+    the settles crawl (the reading nook: 5000 evaluations instead of 300)."""
+    model = step1.model
+    placed_inside = _parts_inside(model, x, pairs, masses)
+    for _ in range(LEANING_ROUNDS):
+        springs = _springs(model, pairs, leaning)
+        settled = _settle_with(step1, x, masses, centres, goal, springs, thorough, leaning)
+        inside = _parts_inside(model, settled.x, pairs, masses) - placed_inside
+        if inside <= leaning or step1.out_of_time():
+            break
+        leaning = leaning | inside
+    return settled
+
+
+def _parts_inside(model: Model, x: Array, pairs: Pairs, masses: Array) -> frozenset[frozenset[int]]:
+    """The movable parts more than OVERLAP_KEPT_MM inside each other at x, in pairs."""
+    return frozenset(
+        frozenset((c.part, c.rests_on))
+        for c in contacts_at(model, x, pairs, _weight(masses))
+        if c.depth > OVERLAP_KEPT_MM and not model.parts[c.rests_on].environment
+    )
+
+
+def _springs(model: Model, pairs: Pairs, leaning: frozenset[frozenset[int]]) -> Pairs:
+    """The pairs whose contact springs act in a settle: against the environment,
+    and between the movable parts `leaning` pairs."""
+    return pairs.against({i for i, part in enumerate(model.parts) if part.environment}, leaning)
+
+
+def _settle_with(
+    step1: Problem,
+    x: Array,
+    masses: Array,
+    centres: Array,
+    goal: target_mod.TargetGoal,
+    pairs: Pairs,
+    thorough: bool,
+    leaning: frozenset[frozenset[int]],
 ) -> Settled:
     """Step 2 from step 1's `x`: held DoFs stay, the rest settle under gravity (with
-    friction from where they start), stably, turned towards the request among
-    equally low configurations, then verified at rest. Not `thorough`: settled
-    and verified only, without the stability test and the turn (for comparing)."""
+    friction from where they start and the contact springs of `pairs`), stably,
+    turned towards the request among equally low configurations, then verified
+    at rest. Not `thorough`: settled and verified only, without the stability
+    test and the turn (for comparing)."""
     model = step1.model
     held = {i for j in model.joints if j.held for i in j.a.dof_indices + j.b.dof_indices}
     # gravity may slide them, unless the program set where
@@ -649,7 +697,7 @@ def _settle(
     contacts = contacts_at(model, x, pairs, weight)
     wrenches = _wrenches(step2, x, masses, centres, slides, contacts)
     topples = (*_topples(model, x, wrenches, set(at_bound)), *_tips_off_its_feet(model, x, wrenches, weight))
-    return Settled(x, equilibrium, at_bound, (*falls, *topples), wrenches.forces, contacts)
+    return Settled(x, equilibrium, at_bound, (*falls, *topples), wrenches.forces, contacts, leaning)
 
 
 def _topples(model: Model, x: Array, wrenches: Wrenches, at_bound: set[int]) -> tuple[Topple, ...]:

@@ -8,9 +8,10 @@ is pushed out by a stiff spring along the distance's gradient (a penalty
 contact: it gives CONTACT_GIVE_MM under the whole assembly's weight on one
 point). Against the environment the springs are part of the settle's energy:
 a part that leans on a wall comes to rest against it, and the wall carries
-what it takes. Between movable parts they serve step 1 (`penetration`) and
-the final check (fabhal/solve/__init__.py, E508); the push acts on both parts,
-equal and opposite. Contacts are frictionless (a part may slide along the
+what it takes. Between movable parts they serve step 1 (`penetration`), the
+final check (fabhal/solve/__init__.py, E508) and, where a settle left two parts
+inside each other, the settle again (`Pairs.against`); the push acts on both
+parts, equal and opposite. Contacts are frictionless (a part may slide along the
 wall), which errs towards reporting that a hack moves. The contact that a
 connection itself makes is not a collision: a part's points around its own
 primitive of a connection to an environment (within the reach of the other
@@ -24,7 +25,7 @@ the settle's energy jump.
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from functools import cached_property
 
@@ -83,9 +84,11 @@ class Pairs:
     def last_inside(self) -> dict[bytes, Touching]:
         return {}
 
-    def against(self, obstacles: set[int]) -> Pairs:
-        """The pairs whose obstacle is one of these parts."""
-        keep = np.flatnonzero(np.isin(self.obstacles, list(obstacles)))
+    def against(self, obstacles: set[int], between: frozenset[frozenset[int]] = frozenset()) -> Pairs:
+        """The pairs whose obstacle is one of these parts, and those of two parts
+        that `between` names together (either way round)."""
+        named = [frozenset((pair.part, pair.obstacle)) in between for pair in self.pairs]
+        keep = np.flatnonzero(np.isin(self.obstacles, list(obstacles)) | np.array(named, dtype=bool))
         return Pairs(
             tuple(self.pairs[k] for k in keep),
             self.parts[keep],
@@ -368,7 +371,7 @@ def contacts_at(model: Model, x: Array, pairs: Pairs, weight: float) -> tuple[Co
     points = touching.per_pair(touching.depth[:, None] * touching.world, len(pairs))
     deepest = np.zeros(len(pairs))
     np.maximum.at(deepest, touching.pair, touching.depth)
-    return tuple(
+    return _one_per_two_parts(
         Contact(
             pairs.pairs[k].part,
             pairs.pairs[k].obstacle,
@@ -379,6 +382,33 @@ def contacts_at(model: Model, x: Array, pairs: Pairs, weight: float) -> tuple[Co
         )
         for k in np.unique(touching.pair).tolist()
     )
+
+
+def _one_per_two_parts(contacts: Iterable[Contact]) -> tuple[Contact, ...]:
+    """Two movable parts touch as two pairs (each one's points in the other's
+    grid): one contact, named as the deeper pair (its part is the one inside
+    the other), with the force on that part from both (the other pair's, on the
+    other part, taken as its reaction) acting at their mean point weighted by force."""
+    merged: dict[frozenset[int], Contact] = {}
+    for contact in contacts:
+        key = frozenset((contact.part, contact.rests_on))
+        first = merged.get(key)
+        if first is None:
+            merged[key] = contact
+            continue
+        if contact.depth > first.depth:
+            first, contact = contact, first
+        shares = np.array([np.linalg.norm(first.force), np.linalg.norm(contact.force)])
+        shares = shares / shares.sum() if shares.sum() > 0.0 else np.array([0.5, 0.5])
+        merged[key] = Contact(
+            first.part,
+            first.rests_on,
+            first.force - contact.force,
+            first.moment - contact.moment,
+            shares[0] * first.point + shares[1] * contact.point,
+            max(first.depth, contact.depth),
+        )
+    return tuple(merged.values())
 
 
 def contact_loads(model: Model, contacts: tuple[Contact, ...]) -> tuple[Array, Array]:

@@ -14,9 +14,9 @@ import pytest
 from scipy.spatial import cKDTree
 
 from fabhal import api
-from fabhal.meshes import contact_points, primitive_mesh
+from fabhal.meshes import contact_points, mass_properties, primitive_mesh
 from fabhal.solve import Solution
-from fabhal.solve.contacts import _distances, contact_pairs
+from fabhal.solve.contacts import Contact, _distances, contact_pairs
 from fabhal.solve.forces import weight_newtons
 from tests.conftest import REPO
 
@@ -206,8 +206,6 @@ def test_a_surface_environment_is_a_solid_wall(tmp_path: Path) -> None:
     assert solution is not None
     assert max(deepest(solution).values()) < 1.0
     mug = solution.model.part_index("mug")
-    from fabhal.meshes import mass_properties
-
     centre = solution.frames[mug][:3, :3] @ mass_properties(solution.model.parts[mug].spec).center_of_mass
     assert (centre + solution.frames[mug][:3, 3])[1] < 0.0
 
@@ -240,3 +238,137 @@ def test_a_connections_own_contact_is_left_out_in_the_parts_frame() -> None:
     left_out = everything[~(everything[:, None] == kept[None]).all(axis=2).any(axis=1)]
     assert np.all(from_arcs(left_out)["hook2"] <= 9.0)
     assert 24 <= len(kept) <= 40
+
+
+POLE_BY_A_POST = """\
+part Pole "A wooden pole hung by a hook, a ball at its foot." {{
+  material wood
+  mass 300
+  hook hook(arc_radius: 15, arc_angle: 270, thickness: 3) at (0, 0, 0)
+  rod shaft(radius: 5, length: 200) at (0, 0, -115)
+  hemisphere front(radius: 15) at (0, 0, -230) rot (0, 90, 0)
+  hemisphere back(radius: 15) at (0, 0, -230) rot (0, -90, 0)
+}}
+part Post "A post on a square foot." {{
+  material wood
+  mass {post_grams}
+  rod body(radius: 20, length: 100) at (0, 0, 50)
+  surface foot(width: {foot}, length: {foot})
+}}
+environment bar = Rod(length: 400, radius: 5) at (0, 0, 500) rot (90, 0, 0)
+environment floor = Surface(width: 400, length: 400) at (25, 0, 200)
+pole = Pole()
+post = Post()
+connect pole.hook -- bar
+connect post.foot -- floor
+target pole.hook at (0, 0, 493)
+"""
+POLE_GRAMS, BALL_DEPTH_MM, REACH_MM = 300.0, 230.0, 15.0 + 20.0  # ball's radius + post's
+# a ball may sink into the post until a sample point (about 8 mm apart: at most half a
+# diagonal, 5.66 mm, from the contact) is inside: s^2 / 2 (1/15 + 1/20) of the two curvatures
+SAMPLED_SINK_MM = 5.66**2 / 2 * (1 / 15 + 1 / 20)
+
+
+def pole_by_a_post(tmp_path: Path, post_grams: float, foot: float) -> api.SolveResult:
+    program = tmp_path / "pole.fhl"
+    program.write_text(POLE_BY_A_POST.format(post_grams=post_grams, foot=foot))
+    return api.solve(program)
+
+
+def swing(solution: Solution) -> tuple[float, float, float, Contact]:
+    """The pole's swing away from the post (degrees, in the x-z plane the bar
+    lets it swing in), its ball's centre's distance from the post's axis (mm),
+    how far its centre of mass is from below the pivot (mm, along -x; the
+    hook's arc centre is the pole's origin), and the one contact."""
+    model, frames = solution.model, solution.frames
+    pole, post = model.part_index("pole"), model.part_index("post")
+    down = -frames[pole][:3, 2]
+    ball = frames[pole][:3, 3] + BALL_DEPTH_MM * down
+    (contact,) = solution.contacts
+    assert {contact.part, contact.rests_on} == {pole, post}
+    centre = frames[pole][:3, :3] @ mass_properties(model.parts[pole].spec).center_of_mass
+    return (
+        float(np.degrees(np.arctan2(-down[0], -down[2]))),
+        float(np.hypot(*(ball[:2] - frames[post][:2, 3]))),
+        -float(centre[0]),
+        contact,
+    )
+
+
+def pushes(solution: Solution, contact: Contact) -> float:
+    """N, the post's horizontal push on the pole (along -x: away from the post)."""
+    sign = 1.0 if solution.model.parts[contact.part].name == "pole" else -1.0
+    return -sign * float(contact.force[0])
+
+
+def test_a_pole_leans_on_a_heavy_post(tmp_path: Path) -> None:
+    """A pole (300 g) hangs from a bar by a hook whose arc centre is its pivot;
+    its ball (radius 15) is 230 mm below. A post (radius 20, 2 kg) stands with
+    its axis 25 mm from the pivot: hanging straight, the ball would be
+    15 + 20 - 25 = 10 mm inside it (E508 when only the environment had
+    contact). The pole leans on the post instead, swung away by
+    230 sin(theta) = 10 - sink: theta = asin(10 / 230) = 2.49 degrees at most,
+    2.03 at least (the sink SAMPLED_SINK_MM = 1.87 mm that sample points 8 mm
+    apart allow). The hook turns freely, so the post's push N balances the
+    weight's moment about the pivot: N h = m g l sin(theta), h = 230 cos(theta)
+    the ball's centre's depth, l = 158.6 mm the centre of mass's (shaft
+    15708 mm^3 at 115, ball 14137 at 230, hook 1999 at -3.2; the model's meshes
+    give 158.2), less 0.2 mm: the hook's 270-degree arc has its centroid 3.2 mm
+    off the axis, towards the swing (x 1999 / 31844). At theta = 2.25:
+    N = 2.943 x (158.2 sin(2.25) - 0.2) / 229.8 = 0.077 N, within 2 % (the
+    pushes act along the sampled points' normals, not exactly through the
+    ball's centre). The post carries it (0.3 x 19.6 N of friction) and stays."""
+    result = pole_by_a_post(tmp_path, 2000, 40)
+    assert result.status == "solved", result.diagnostics
+    solution = result.solution
+    theta, apart, lever, contact = swing(solution)
+    assert lever == pytest.approx(158.6 * np.sin(np.radians(theta)) - 0.2, abs=0.1)
+    assert np.degrees(np.arcsin((10.0 - SAMPLED_SINK_MM) / BALL_DEPTH_MM)) - 0.05 <= theta
+    assert theta <= np.degrees(np.arcsin(10.0 / BALL_DEPTH_MM)) + 0.05
+    assert REACH_MM - SAMPLED_SINK_MM <= apart <= REACH_MM + 0.1
+    weight = POLE_GRAMS * 9.81 / 1000
+    level = BALL_DEPTH_MM * np.cos(np.radians(theta))
+    assert pushes(solution, contact) == pytest.approx(weight * lever / level, rel=0.02)
+    assert solution.frames[solution.model.part_index("post")][0, 3] == pytest.approx(25.0, abs=0.5)
+    assert max(deepest(solution).values()) < 1.0
+
+
+def test_a_light_post_is_pushed_until_friction_holds_it(tmp_path: Path) -> None:
+    """The same pole by a post of 20 g on a 60 mm foot: its friction,
+    0.3 x 0.196 N = 0.0589 N, is less than the 0.078 N the pole needs, so the
+    post slides away until the push has fallen to it (the friction term's
+    smoothing holds a slide of s mm with s / sqrt(s^2 + 0.5^2) of it: 0.97
+    or more beyond 2 mm). There l sin(theta) - 0.2 = N h / (m g) = 0.0589 x
+    229.9 / 2.943 = 4.6 mm, sin(theta) = 0.0303, theta = 1.74 degrees, and
+    the post has moved 10 - 230 x 0.0303 = 3.0 mm, less the sampled sink (up
+    to 1.87 mm); the pole's balance as above, within 2 %. It
+    does not tip: the push acts about 65 mm above the floor, and tipping over
+    a 30 mm half-foot takes 0.196 x 30 / 65 = 0.090 N."""
+    result = pole_by_a_post(tmp_path, 20, 60)
+    assert result.status == "solved", result.diagnostics
+    solution = result.solution
+    theta, apart, lever, contact = swing(solution)
+    friction = 0.3 * 20 * 9.81 / 1000
+    assert 0.97 * friction <= pushes(solution, contact) <= 1.01 * friction
+    slid = solution.frames[solution.model.part_index("post")][0, 3] - 25.0
+    assert 3.0 - SAMPLED_SINK_MM - 0.1 <= slid <= 3.0 + 0.2
+    assert REACH_MM - SAMPLED_SINK_MM <= apart <= REACH_MM + 0.1
+    weight = POLE_GRAMS * 9.81 / 1000
+    level = BALL_DEPTH_MM * np.cos(np.radians(theta))
+    assert pushes(solution, contact) == pytest.approx(weight * lever / level, rel=0.02)
+
+
+def test_a_light_post_on_a_small_foot_falls_over(tmp_path: Path) -> None:
+    """On a 20 mm foot the light post tips before it slides: the push at
+    h = 65 mm above the floor tips it over its 10 mm half-foot from
+    0.196 x 10 / 65 = 0.030 N, below its friction (0.059 N). So it falls over:
+    E507 at its floor connection, the floor's push 0.0589 x 65 / 0.196 - 10 =
+    9.5 mm beyond its foot's edge (to 1.5 mm: the push is friction's within
+    3 %, and h is the contact's height)."""
+    result = pole_by_a_post(tmp_path, 20, 20)
+    assert result.status == "falls_apart"
+    (topple,) = [d for d in result.diagnostics if d.code == "E507"]
+    assert topple.message.count("`post` falls over on `floor`") == 1
+    beyond = float(topple.message.split("acts ")[1].split(" mm")[0])
+    assert beyond == pytest.approx(9.5, abs=1.5)
+    assert topple.span is not None and topple.span.line == 20  # connect post.foot -- floor
