@@ -14,7 +14,7 @@ from __future__ import annotations
 import os
 from collections.abc import Callable
 from dataclasses import dataclass
-from functools import lru_cache
+from functools import lru_cache, partial
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -289,6 +289,11 @@ SURFACE_SLAB_MM = 40.0
 # about one per this spacing (mm), within the bounds below
 CONTACT_POINT_SPACING_MM = 8.0
 CONTACT_POINTS = (64, 400)
+# the check's points (`check_points`): fine enough for a wire (a hanger's 6.3 mm, a
+# mug's 2.2 mm wall, a caddy's handle) that the settle's points, up to 40 mm apart on
+# a large part, can pass between
+CHECK_POINT_SPACING_MM = 3.0
+CHECK_POINTS = (256, 40_000)
 
 
 def contact_grid(spec: PartSpec, building: Callable[[], None] | None = None) -> DistanceGrid:
@@ -298,20 +303,28 @@ def contact_grid(spec: PartSpec, building: Callable[[], None] | None = None) -> 
     return _cached_array(spec, "grid", _build_grid, building)  # type: ignore[return-value]
 
 
-def contact_points(spec: PartSpec) -> Array:
-    """(N, 3) points on the movable part's surface, in its frame (seeded: the same every run)."""
+def contact_points(spec: PartSpec, check: bool = False) -> Array:
+    """(N, 3) points on the movable part's surface, in its frame (seeded: the
+    same every run): about CONTACT_POINT_SPACING_MM apart for the settle's
+    springs, CHECK_POINT_SPACING_MM apart for the check (`check`)."""
+    if check:
+        finer = partial(_sample_points, spacing=CHECK_POINT_SPACING_MM, counts=CHECK_POINTS)
+        return _cached_array(spec, "check-points", finer)  # type: ignore[return-value]
     return _cached_array(spec, "points", _sample_points)  # type: ignore[return-value]
 
 
-def near_primitive(spec: PartSpec, primitive: Primitive, reach: float) -> NDArray[np.bool_]:
-    """(N,) whether each of the part's contact points (`contact_points`) lies
-    within `reach` of the primitive's shape (`primitive_mesh`), or inside it.
-    Cached like the points (measured once per machine: sampling the shape
-    costs a solve 0.1-1 s, importing trimesh included)."""
+def near_primitive(
+    spec: PartSpec, primitive: Primitive, reach: float, check: bool = False
+) -> NDArray[np.bool_]:
+    """(N,) whether each of the part's contact points (`contact_points`, the
+    check's if `check`) lies within `reach` of the primitive's shape
+    (`primitive_mesh`), or inside it. Cached like the points (measured once per
+    machine: sampling the shape costs a solve 0.1-1 s, importing trimesh included)."""
     import hashlib
 
     which = hashlib.sha256(f"{primitive!r} {reach!r}".encode()).hexdigest()[:12]
-    near = _cached_array(spec, f"near-{which}", lambda s: _near(contact_points(s), primitive, reach))
+    kind = f"near-{'check-' if check else ''}{which}"
+    near = _cached_array(spec, kind, lambda s: _near(contact_points(s, check), primitive, reach))
     return near  # type: ignore[return-value]
 
 
@@ -383,12 +396,13 @@ def _build_grid(spec: PartSpec) -> DistanceGrid:
     return signed_distance_grid(surfaces, low, high)
 
 
-def _sample_points(spec: PartSpec) -> Array:
+def _sample_points(
+    spec: PartSpec, spacing: float = CONTACT_POINT_SPACING_MM, counts: tuple[int, int] = CONTACT_POINTS
+) -> Array:
     import trimesh
 
     mesh = part_mesh(spec)
-    low, high = CONTACT_POINTS
-    count = int(np.clip(mesh.area / CONTACT_POINT_SPACING_MM**2, low, high))
+    count = int(np.clip(mesh.area / spacing**2, *counts))
     points, _ = trimesh.sample.sample_surface(mesh, count, seed=0)
     return np.asarray(points, dtype=float)
 

@@ -24,7 +24,15 @@ from fabhal.model import Joint, Model, build_model
 from fabhal.solve import aim as aim_mod
 from fabhal.solve import reach
 from fabhal.solve import target as target_mod
-from fabhal.solve.contacts import Contact, Pairs, contact_loads, contact_pairs, contacts_at, with_contacts
+from fabhal.solve.contacts import (
+    Contact,
+    Pairs,
+    check,
+    contact_loads,
+    contact_pairs,
+    contacts_at,
+    with_contacts,
+)
 from fabhal.solve.energy import Energy
 from fabhal.solve.forces import (
     Slide,
@@ -56,9 +64,9 @@ LOOP_KEPT_MM = 1e-3  # a result whose loops are open by more is never solved (E5
 # a result with a part this deep in another is never solved (E508): five times the
 # contact springs' give under the assembly's whole weight (fabhal/solve/contacts.py)
 OVERLAP_KEPT_MM = 1.0
-# settles repeated with more parts' contact springs on (`_settle`): each round adds
-# the pairs found inside each other
-LEANING_ROUNDS = 3
+# settles repeated with more contact (`_settle`): each round adds the pairs of parts
+# found inside each other and the check's points where the settle's missed a contact
+CONTACT_ROUNDS = 3
 EXTRA_STARTS = 3  # seeded random starts for step 1, besides the spread-out defaults
 # a random start whose loops take longer to close than this is dropped: on the gallery
 # those that close do so within 26 evaluations, and one that fails spends the whole budget
@@ -356,16 +364,20 @@ def _solve_once(model: Model, options: SolveOptions, loop_start: Array | None) -
             options.report("step 2: settling from another start")
             start = step1.full(fit.runner_up)
             # a plain settle to compare; the stability test and the turn only if it wins
-            other = _settle(step1, start, masses, centres, goal, pairs, False, settled.leaning)
+            other = _settle(
+                step1, start, masses, centres, goal, settled.pairs or pairs, False, settled.leaning
+            )
             settled, disagreement = _pick(
                 model, goal, settled, other, lambda s: _energy(model.part_frames(s.x), masses, centres)
             )
             if settled is other:
-                settled = _settle(step1, start, masses, centres, goal, pairs, leaning=other.leaning)
+                settled = _settle(
+                    step1, start, masses, centres, goal, other.pairs or pairs, leaning=other.leaning
+                )
             if disagreement is not None:
                 notes.append(disagreement)
         if options.aim and not step1.out_of_time():
-            settled, aimed = _aimed(step1, settled, masses, centres, goal, pairs, options)
+            settled, aimed = _aimed(step1, settled, masses, centres, goal, settled.pairs or pairs, options)
             notes.extend(aimed)
         if not settled.falls and not _at_rest(settled) and np.isfinite(settled.equilibrium or 0.0):
             notes.append(
@@ -400,8 +412,8 @@ def _solve_once(model: Model, options: SolveOptions, loop_start: Array | None) -
                 "and report the program",
             )
         )
-    overlaps = [c for c in contacts_at(model, x, pairs, _weight(masses)) if c.depth > OVERLAP_KEPT_MM]
-    diagnostics.extend(_overlap_diagnostic(model, contact) for contact in overlaps[:1])
+    overlaps = _overlaps(model, x, settled.pairs or pairs, masses)
+    diagnostics.extend(_overlap_diagnostic(model, *overlap) for overlap in overlaps[:1])
     if any(not isinstance(fall, Lean | Slip) for fall in settled.falls):
         status = "falls_apart"
     elif settled.falls:
@@ -468,9 +480,9 @@ def _aimed(
             # the aim itself came no nearer: settled from there it would not either (from a
             # result that leans on a stop, reaching rest is the gain, not nearness)
             break
-        aimed = _settle(step1, start, masses, centres, goal, pairs, leaning=settled.leaning)
+        aimed = _settle(step1, start, masses, centres, goal, best.pairs or pairs, leaning=best.leaning)
         ranks = [_rank(goal, model.part_frames(s.x), s) for s in (aimed, best)]
-        inside = any(c.depth > OVERLAP_KEPT_MM for c in contacts_at(model, aimed.x, pairs, weight))
+        inside = bool(_overlaps(model, aimed.x, aimed.pairs or pairs, masses))
         if ranks[0] >= ranks[1] or inside:
             break
         best = aimed
@@ -567,6 +579,7 @@ class Settled:
     contacts: tuple[Contact, ...] = ()
     # the movable parts whose contact springs acted between them (`_settle`)
     leaning: frozenset[frozenset[int]] = frozenset()
+    pairs: Pairs | None = None  # the contact pairs, as the settle refined them
 
 
 def _wrenches(
@@ -600,33 +613,71 @@ def _settle(
     leaning: frozenset[frozenset[int]] = frozenset(),
 ) -> Settled:
     """`_settle_with` the contact springs against the environment and between the
-    movable parts that `leaning` pairs. Where the result leaves two other movable
-    parts more than OVERLAP_KEPT_MM inside each other, it settles again from the
-    same start with their springs on too: the one then leans on the other, which
-    carries it. Not parts already inside each other at the start: placed so (two
-    objects stood on one spot), no motion led there, and the springs would push
-    them apart any way (E508 says it). Springs between movable parts are
-    switched on only where needed: on everywhere, grazing contacts in a loop made
-    the settles crawl (the reading nook: 5000 evaluations instead of 300)."""
+    movable parts that `leaning` pairs, then checked with the check's finer
+    points (fabhal/solve/contacts.py `check`), and settled again from the same
+    start (up to CONTACT_ROUNDS in all) where the check finds what the settle's
+    points missed: where two other movable parts are more than OVERLAP_KEPT_MM
+    inside each other, their springs are switched on too (the one then leans
+    on the other, which carries it), and where a part is inside anything
+    between its settle's points (an edge, a wire), the check's points there
+    join them (`Pairs.refined`). Not parts already inside each other at the
+    start: placed so (two objects stood on one spot), no motion led there, and
+    the springs would push them apart any way (E508 says it). Springs between
+    movable parts are switched on only where needed: on everywhere, grazing
+    contacts in a loop made the settles crawl (the reading nook: 5000
+    evaluations instead of 300). The result carries the refined pairs."""
     model = step1.model
     placed_inside = _parts_inside(model, x, pairs, masses)
-    for _ in range(LEANING_ROUNDS):
+    for _ in range(CONTACT_ROUNDS):
         springs = _springs(model, pairs, leaning)
         settled = _settle_with(step1, x, masses, centres, goal, springs, thorough, leaning)
         inside = _parts_inside(model, settled.x, pairs, masses) - placed_inside
-        if inside <= leaning or step1.out_of_time():
+        refined = pairs.refined(_missed(model, settled.x, pairs, leaning | inside))
+        if (inside <= leaning and refined.size() == pairs.size()) or step1.out_of_time():
             break
-        leaning = leaning | inside
-    return settled
+        pairs, leaning = refined, leaning | inside
+    return replace(settled, pairs=pairs)
 
 
 def _parts_inside(model: Model, x: Array, pairs: Pairs, masses: Array) -> frozenset[frozenset[int]]:
-    """The movable parts more than OVERLAP_KEPT_MM inside each other at x, in pairs."""
+    """The movable parts whose settle's points are more than OVERLAP_KEPT_MM
+    inside each other at x, in pairs."""
     return frozenset(
         frozenset((c.part, c.rests_on))
         for c in contacts_at(model, x, pairs, _weight(masses))
         if c.depth > OVERLAP_KEPT_MM and not model.parts[c.rests_on].environment
     )
+
+
+def _missed(model: Model, x: Array, pairs: Pairs, leaning: frozenset[frozenset[int]]) -> dict[int, Array]:
+    """Where the check's points find a part inside what its springs act against
+    (the environment, the parts it leans on) between the settle's points: per
+    pair, the check's points found inside (`Checked.deep`)."""
+    checked = check(model, x, pairs)
+    return {
+        k: inside
+        for k, inside in checked.deep.items()
+        if model.parts[int(pairs.obstacles[k])].environment
+        or frozenset((int(pairs.parts[k]), int(pairs.obstacles[k]))) in leaning
+    }
+
+
+def _overlaps(model: Model, x: Array, pairs: Pairs, masses: Array) -> list[tuple[int, int, float]]:
+    """(part, obstacle, depth mm) deeper than OVERLAP_KEPT_MM inside, deepest first:
+    in the environment by the check's points, parts in each other by the
+    settle's (the check's find the reading nook's wire rings crossing its links
+    by up to 2.8 mm, and their springs made its settle crawl: docs/physics.md)."""
+    in_world = [
+        overlap
+        for overlap in check(model, x, pairs).overlaps(pairs, OVERLAP_KEPT_MM)
+        if model.parts[overlap[1]].environment
+    ]
+    in_parts = [
+        (c.part, c.rests_on, c.depth)
+        for c in contacts_at(model, x, pairs, _weight(masses))
+        if c.depth > OVERLAP_KEPT_MM and not model.parts[c.rests_on].environment
+    ]
+    return sorted(in_world + in_parts, key=lambda overlap: -overlap[2])
 
 
 def _springs(model: Model, pairs: Pairs, leaning: frozenset[frozenset[int]]) -> Pairs:
@@ -1149,11 +1200,11 @@ def _fall_diagnostic(model: Model, fall: Fall | Topple | Lean | Slip) -> Diagnos
     )
 
 
-def _overlap_diagnostic(model: Model, contact: Contact) -> Diagnostic:
-    part, other = (model.parts[i] for i in (contact.part, contact.rests_on))
+def _overlap_diagnostic(model: Model, part_index: int, other_index: int, depth: float) -> Diagnostic:
+    part, other = (model.parts[i] for i in (part_index, other_index))
     return error(
         "E508",
-        f"`{part.name}` is {contact.depth:.1f} mm inside `{other.name}` where the solver stopped: "
+        f"`{part.name}` is {depth:.1f} mm inside `{other.name}` where the solver stopped: "
         "the parts cannot be where shown",
         model.program.targets[0].span,
         "the connections hold them where they would pass through each other: give them room (another "

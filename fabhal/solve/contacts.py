@@ -26,7 +26,7 @@ the settle's energy jump.
 from __future__ import annotations
 
 from collections.abc import Callable, Iterable
-from dataclasses import dataclass
+from dataclasses import dataclass, field, replace
 from functools import cached_property
 
 import numpy as np
@@ -47,6 +47,14 @@ Index = NDArray[np.intp]
 CONTACT_GIVE_MM = 0.2
 # around a connection point, this much more than its primitives' reach is the connection's own contact
 CONNECTION_CLEARANCE_MM = 5.0
+# where the check's points find a part deeper than this inside an obstacle (mm), the
+# settle's points missed it (they are up to 40 mm apart on a large part, and an edge or a
+# wire passes between them): the check's points there join the settle's (`Pairs.refined`).
+# Deeper than the springs' give (0.2 mm under the whole weight on one point)
+REFINE_DEPTH_MM = 0.5
+# ...those within this distance (mm, the part's frame) of a check point found inside:
+# a few of the settle's spacings, so the contact's neighbourhood is covered as it slides
+REFINE_RADIUS_MM = 15.0
 
 
 @dataclass(frozen=True)
@@ -56,9 +64,11 @@ class Pair:
     part: int
     obstacle: int  # an environment, or another movable part
     points: Array  # (N, 3) mm in the part's frame, less those a connection to the obstacle touches with
+    check: Array  # (M, 3) the same, CHECK_POINT_SPACING_MM apart (fabhal/meshes.py), for the check
     shape: PartSpec  # the obstacle's: its grid is built when first needed (`grid`)
     box: Array  # (2, 3) mm, the obstacle's mesh's bounds in its frame
     building: Callable[[], None] | None = None  # told before the obstacle's grid is first built
+    added: Index = field(default_factory=lambda: np.zeros(0, dtype=int))  # the check's points in `points`
 
     @cached_property
     def grid(self) -> DistanceGrid:
@@ -83,6 +93,25 @@ class Pairs:
     @cached_property
     def last_inside(self) -> dict[bytes, Touching]:
         return {}
+
+    def refined(self, deep: dict[int, Array]) -> Pairs:
+        """The pairs with, for each pair k in `deep`, the check's points within
+        REFINE_RADIUS_MM of deep[k] (check points found inside, the part's frame)
+        added to the settle's points."""
+        from scipy.spatial import cKDTree
+
+        pairs = list(self.pairs)
+        for k, inside in deep.items():
+            pair = pairs[k]
+            near = cKDTree(pair.check).query_ball_point(inside, REFINE_RADIUS_MM)
+            added = np.union1d(pair.added, np.concatenate([np.asarray(n, dtype=int) for n in near]))
+            sparse = pair.points[: len(pair.points) - len(pair.added)]
+            pairs[k] = replace(pair, points=np.vstack([sparse, pair.check[added]]), added=added)
+        return replace(self, pairs=tuple(pairs))
+
+    def size(self) -> int:
+        """How many points all the pairs' settles look up."""
+        return sum(len(pair.points) for pair in self.pairs)
 
     def against(self, obstacles: set[int], between: frozenset[frozenset[int]] = frozenset()) -> Pairs:
         """The pairs whose obstacle is one of these parts, and those of two parts
@@ -131,9 +160,9 @@ def contact_pairs(model: Model, report: Callable[[str], None] | None = None) -> 
     between: dict[frozenset[int], list[Joint]] = {}
     for joint in model.joints:
         between.setdefault(frozenset((joint.a.part, joint.b.part)), []).append(joint)
-    points = {part: contact_points(model.parts[part].spec) for part in movable}
+    points = {part: contact_points(model.parts[part].spec) for part in movable}  # for the balls
     # one array per kind of pair, so that pairs alike are looked up at once
-    kept: dict[tuple[object, ...], Array] = {}
+    kept: dict[tuple[object, ...], tuple[Array, Array]] = {}
     # where any point inside an obstacle must be, without building its grid: most pairs never come near
     boxes = {i: obstacle_bounds(model.parts[i].spec) for i in obstacles}
     box_balls = {i: _ball_of_box(box) for i, box in boxes.items()}
@@ -152,10 +181,12 @@ def contact_pairs(model: Model, report: Callable[[str], None] | None = None) -> 
             )
             key = (model.parts[part].type_name, *((own.name, _reach(other)) for own, other in touching))
             if key not in kept:
-                kept[key] = _away_from(model.parts[part].spec, points[part], touching)
+                kept[key] = tuple(  # type: ignore[assignment]
+                    _away_from(model.parts[part].spec, touching, check) for check in (False, True)
+                )
             spec = model.parts[obstacle].spec
             building = None if report is None else _telling(report, model.parts[obstacle].type_name)
-            pairs.append(Pair(part, obstacle, kept[key], spec, boxes[obstacle], building))
+            pairs.append(Pair(part, obstacle, *kept[key], spec, boxes[obstacle], building))
     point_balls = {part: _ball_of_points(points[part]) for part in movable}
     return Pairs(
         tuple(pairs),
@@ -166,11 +197,13 @@ def contact_pairs(model: Model, report: Callable[[str], None] | None = None) -> 
     )
 
 
-def _away_from(spec: PartSpec, points: Array, touching: tuple[tuple[Primitive, Primitive], ...]) -> Array:
-    """The part's points farther from each own primitive's shape than the other's reach."""
+def _away_from(spec: PartSpec, touching: tuple[tuple[Primitive, Primitive], ...], check: bool) -> Array:
+    """The part's points (the check's if `check`) farther from each own
+    primitive's shape than the other's reach."""
+    points = contact_points(spec, check)
     keep = np.ones(len(points), dtype=bool)
     for own, other in touching:
-        keep &= ~near_primitive(spec, own, _reach(other))
+        keep &= ~near_primitive(spec, own, _reach(other), check)
     return points[keep]
 
 
@@ -204,16 +237,19 @@ def _reach(primitive: Primitive) -> float:
     return sizes.get(primitive.kind, 0.0) + CONNECTION_CLEARANCE_MM
 
 
-def _distances(fwd: Forward, pairs: Pairs, group: list[int]) -> tuple[Array, Array, Array]:
+def _distances(
+    fwd: Forward, pairs: Pairs, group: list[int], check: bool = False
+) -> tuple[Array, Array, Array]:
     """Pairs of one kind (the same points against the same grid) at once: their
-    points in the world (G, N, 3), their signed distances from the obstacle
-    (G, N; +inf where not looked up) and the distances' gradients in the world
-    (G, N, 3)."""
+    points (the check's if `check`) in the world (G, N, 3), their signed
+    distances from the obstacle (G, N; +inf where not looked up) and the
+    distances' gradients in the world (G, N, 3)."""
     first = pairs.pairs[group[0]]
     frames = fwd.frames
     part, obstacle = frames[pairs.parts[group]], frames[pairs.obstacles[group]]
     # row vectors: p_world = R p + o is p @ R^T + o, and p_local = (p_world - o) @ R
-    world = first.points @ part[:, :3, :3].transpose(0, 2, 1) + part[:, None, :3, 3]
+    points = first.check if check else first.points
+    world = points @ part[:, :3, :3].transpose(0, 2, 1) + part[:, None, :3, 3]
     local = (world - obstacle[:, None, :3, 3]) @ obstacle[:, :3, :3]
     # only points within the obstacle's box, and in its grid's blocks that reach
     # inside, can be inside it: the rest are not looked up (their distances stay +inf)
@@ -265,13 +301,18 @@ def _inside(model: Model, fwd: Forward, pairs: Pairs) -> Touching:
     return last
 
 
-def _look_inside(model: Model, fwd: Forward, pairs: Pairs) -> Touching:
+def _kinds(pairs: Pairs, fwd: Forward, check: bool = False) -> list[list[int]]:
+    """The pairs near enough to look at, by kind: the same points against the same grid."""
     kinds: dict[tuple[int, int], list[int]] = {}
     for k in pairs.near(fwd.frames).tolist():
         pair = pairs.pairs[k]
-        kinds.setdefault((id(pair.points), id(pair.grid)), []).append(k)
+        kinds.setdefault((id(pair.check if check else pair.points), id(pair.grid)), []).append(k)
+    return list(kinds.values())
+
+
+def _look_inside(model: Model, fwd: Forward, pairs: Pairs) -> Touching:
     found: list[tuple[Array, Array, Array, Array]] = []
-    for group in kinds.values():
+    for group in _kinds(pairs, fwd):
         world, distance, normal = _distances(fwd, pairs, group)
         inside = distance < 0.0
         which = np.broadcast_to(np.array(group)[:, None], inside.shape)[inside]
@@ -358,6 +399,39 @@ def penetration(model: Model, x: Array, pairs: Pairs) -> tuple[Array, Array]:
     inside = depths > 0.0
     rows[inside] /= depths[inside, None]
     return depths, rows
+
+
+@dataclass(frozen=True)
+class Checked:
+    """What the check's points find at a configuration: per pair, how deep its
+    deepest point is inside the obstacle (mm, 0 if none), and for the pairs
+    deeper than REFINE_DEPTH_MM the points found so (the part's frame)."""
+
+    depth: Array  # (K,)
+    deep: dict[int, Array]
+
+    def overlaps(self, pairs: Pairs, deeper: float) -> list[tuple[int, int, float]]:
+        """(part, obstacle, depth) of every pair deeper than `deeper` mm, deepest first."""
+        found = np.flatnonzero(self.depth > deeper)
+        found = found[np.argsort(-self.depth[found])]
+        return [(int(pairs.parts[k]), int(pairs.obstacles[k]), float(self.depth[k])) for k in found]
+
+
+def check(model: Model, x: Array, pairs: Pairs) -> Checked:
+    """The check's points (about 3 mm apart) against every obstacle near: the
+    measure of whether parts are inside each other or the world (E508), finer
+    than the settle's springs, which it refines where they missed."""
+    fwd = model.forward(x)
+    depth = np.zeros(len(pairs))
+    deep: dict[int, Array] = {}
+    for group in _kinds(pairs, fwd, check=True):
+        distance = _distances(fwd, pairs, group, check=True)[1]
+        for row, k in enumerate(group):
+            inside = -distance[row]
+            depth[k] = max(0.0, float(inside.max(initial=0.0)))
+            if depth[k] > REFINE_DEPTH_MM:
+                deep[k] = pairs.pairs[k].check[inside > REFINE_DEPTH_MM]
+    return Checked(depth, deep)
 
 
 def contacts_at(model: Model, x: Array, pairs: Pairs, weight: float) -> tuple[Contact, ...]:
