@@ -25,7 +25,7 @@ the settle's energy jump.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterable
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from functools import cached_property
 
@@ -55,6 +55,9 @@ REFINE_DEPTH_MM = 0.5
 # ...those within this distance (mm, the part's frame) of a check point found inside:
 # a few of the settle's spacings, so the contact's neighbourhood is covered as it slides
 REFINE_RADIUS_MM = 15.0
+# touching points this close (mm), or chained so, are one contact (`contacts_at`): more
+# than the settle's points' spacing (8 mm), less than a hack's separate contacts lie apart
+REGION_MM = 20.0
 
 
 @dataclass(frozen=True)
@@ -435,54 +438,50 @@ def check(model: Model, x: Array, pairs: Pairs) -> Checked:
 
 
 def contacts_at(model: Model, x: Array, pairs: Pairs, weight: float) -> tuple[Contact, ...]:
-    """The contacts at x: each pair whose points are inside, with the force the
-    obstacle exerts (N) and where."""
+    """The contacts at x, with the force the other body exerts (N) and where:
+    one per region where two bodies touch (`_regions`: a caddy's two handles
+    on the seats are two contacts, each drawn where it is). Two movable parts
+    touch as two pairs (each one's points in the other's grid), taken together:
+    a region is named by its deepest point's pair (its part is the one inside
+    the other), and the other pair's pushes, on the other part, count as
+    their reactions."""
     touching = _inside(model, model.forward(x, with_twists=True), pairs)
     slope = penalty(-touching.depth, _stiffness(weight))[1]
-    push = -1000.0 * slope[:, None] * touching.normal  # J/mm -> N
-    forces, moments = touching.resultants(push, len(pairs))
-    total_depth = touching.per_pair(touching.depth, len(pairs))
-    points = touching.per_pair(touching.depth[:, None] * touching.world, len(pairs))
-    deepest = np.zeros(len(pairs))
-    np.maximum.at(deepest, touching.pair, touching.depth)
-    return _one_per_two_parts(
-        Contact(
-            pairs.pairs[k].part,
-            pairs.pairs[k].obstacle,
-            forces[k],
-            moments[k],
-            points[k] / total_depth[k],  # the penetration-weighted mean point
-            float(deepest[k]),
-        )
-        for k in np.unique(touching.pair).tolist()
-    )
+    push = -1000.0 * slope[:, None] * touching.normal  # J/mm -> N, on each point's part
+    parts, obstacles = pairs.parts[touching.pair], pairs.obstacles[touching.pair]
+    bodies = np.minimum(parts, obstacles) * len(model.parts) + np.maximum(parts, obstacles)
+    contacts = []
+    for key in np.unique(bodies).tolist():
+        together = np.flatnonzero(bodies == key)
+        for region in _regions(touching.world[together]):
+            rows = together[region]
+            named = rows[np.argmax(touching.depth[rows])]
+            on_named = np.where(parts[rows] == parts[named], 1.0, -1.0)[:, None] * push[rows]
+            depth = touching.depth[rows]
+            contacts.append(
+                Contact(
+                    int(parts[named]),
+                    int(obstacles[named]),
+                    on_named.sum(axis=0),
+                    np.cross(touching.world[rows], on_named).sum(axis=0),
+                    depth @ touching.world[rows] / depth.sum(),  # the penetration-weighted mean point
+                    float(depth.max()),
+                )
+            )
+    return tuple(contacts)
 
 
-def _one_per_two_parts(contacts: Iterable[Contact]) -> tuple[Contact, ...]:
-    """Two movable parts touch as two pairs (each one's points in the other's
-    grid): one contact, named as the deeper pair (its part is the one inside
-    the other), with the force on that part from both (the other pair's, on the
-    other part, taken as its reaction) acting at their mean point weighted by force."""
-    merged: dict[frozenset[int], Contact] = {}
-    for contact in contacts:
-        key = frozenset((contact.part, contact.rests_on))
-        first = merged.get(key)
-        if first is None:
-            merged[key] = contact
-            continue
-        if contact.depth > first.depth:
-            first, contact = contact, first
-        shares = np.array([np.linalg.norm(first.force), np.linalg.norm(contact.force)])
-        shares = shares / shares.sum() if shares.sum() > 0.0 else np.array([0.5, 0.5])
-        merged[key] = Contact(
-            first.part,
-            first.rests_on,
-            first.force - contact.force,
-            first.moment - contact.moment,
-            shares[0] * first.point + shares[1] * contact.point,
-            max(first.depth, contact.depth),
-        )
-    return tuple(merged.values())
+def _regions(points: Array) -> list[Index]:
+    """The points (M, 3) in groups: chains of points each within REGION_MM of
+    the next (single linkage), one group per touching region."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+    from scipy.spatial import cKDTree
+
+    near = cKDTree(points).query_pairs(REGION_MM, output_type="ndarray")
+    graph = coo_matrix((np.ones(len(near)), (near[:, 0], near[:, 1])), shape=(len(points), len(points)))
+    labels = connected_components(graph, directed=False)[1]
+    return [np.flatnonzero(labels == label) for label in range(labels.max(initial=-1) + 1)]
 
 
 def contact_loads(model: Model, contacts: tuple[Contact, ...]) -> tuple[Array, Array]:

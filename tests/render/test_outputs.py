@@ -82,10 +82,10 @@ def test_png_has_the_requested_size_and_shows_the_hack(mug: Any, tmp_path: Path)
 
 
 def test_contacts_are_drawn_where_parts_rest_on_the_environment(tmp_path: Path) -> None:
-    """The paper towel roll rests against the wall: the picture marks the
-    contact (magenta, drawn over the bodies that hide it) at the contact's
-    point, with an arrow along the wall's push on the roll, and the 3D file
-    has it as a named node."""
+    """The paper towel roll rests against the wall (touching it at two points
+    of a line, two contacts): the picture marks each contact (magenta, drawn
+    over the bodies that hide it) at the contact's point, with an arrow along
+    the wall's push on the roll, and the 3D file has it as a named node."""
     import trimesh
     from PIL import Image
 
@@ -93,15 +93,18 @@ def test_contacts_are_drawn_where_parts_rest_on_the_environment(tmp_path: Path) 
     from fabhal.render.scene import CONTACT_COLOR, build_scene
 
     result = api.solve(REPO / "programs" / "paper_towel_holder.fhl")
-    (contact,) = result.solution.contacts
+    contacts = result.solution.contacts
     scene = build_scene(result.solution, "towel", RenderOptions())
-    (marker,) = [item for item in scene.items if item.role == "contact"]
-    assert marker.name == f"roll rests on walls ({np.linalg.norm(contact.force):.1f} N)"
-    np.testing.assert_allclose(marker.transform[:3, 3], contact.point)
-    # the arrow's tip lies along the force from the contact point
-    tip = marker.world_vertices()[np.argmax((marker.world_vertices() - contact.point) @ contact.force)]
-    direction = (tip - contact.point) / np.linalg.norm(tip - contact.point)
-    assert direction @ (contact.force / np.linalg.norm(contact.force)) > 0.99
+    markers = [item for item in scene.items if item.role == "contact"]
+    assert len(markers) == len(contacts) == 2
+    for marker, contact in zip(markers, contacts, strict=True):
+        assert marker.name == f"roll rests on walls ({np.linalg.norm(contact.force):.1f} N)"
+        np.testing.assert_allclose(marker.transform[:3, 3], contact.point)
+        # the arrow's tip lies along the force from the contact point
+        tip = marker.world_vertices()[np.argmax((marker.world_vertices() - contact.point) @ contact.force)]
+        direction = (tip - contact.point) / np.linalg.norm(tip - contact.point)
+        assert direction @ (contact.force / np.linalg.norm(contact.force)) > 0.99
+    marker, contact = markers[0], contacts[0]
 
     path = tmp_path / "towel.png"
     render(result.solution, "towel", path, RenderOptions(size=(400, 300)), to_dict(result, "towel"))

@@ -14,7 +14,7 @@ import pytest
 from scipy.spatial import cKDTree
 
 from fabhal import api
-from fabhal.meshes import contact_points, mass_properties, primitive_mesh
+from fabhal.meshes import contact_grid, contact_points, mass_properties, primitive_mesh
 from fabhal.solve import Solution
 from fabhal.solve.contacts import Contact, _distances, contact_pairs
 from fabhal.solve.forces import weight_newtons
@@ -64,12 +64,14 @@ def test_the_paper_towel_roll_rests_against_the_wall() -> None:
     leans on it: the wall pushes it out (+x, the wall's face) with a force of
     its own, and the wall and the two hooks together hold the whole weight,
     m g = (2 x 135.2 + 47.5 + 200) g x 9.81 = 5.08 N up, with no net
-    sideways force (0.01 N: the settle stops at 1e-4 of the weight per mm)."""
+    sideways force (0.01 N: the settle stops at 1e-4 of the weight per mm).
+    The roll touches the wall along a line, which its sample points meet at
+    points of it more than 20 mm apart: reported as a contact each."""
     solution = solved("paper_towel_holder.fhl")
     assert max(deepest(solution).values()) < 1.0  # the wall, and each part in the others
-    (contact,) = solution.contacts
-    assert solution.model.parts[contact.part].name == "roll"
-    assert contact.force[0] > 1.0 and abs(contact.force[2]) < 0.05  # the wall pushes horizontally
+    assert {solution.model.parts[contact.part].name for contact in solution.contacts} == {"roll"}
+    push = sum((contact.force for contact in solution.contacts), np.zeros(3))
+    assert push[0] > 1.0 and abs(push[2]) < 0.05  # the wall pushes horizontally
     weight = float(weight_newtons(solution.masses).sum())
     assert weight == pytest.approx((2 * 135.2 + 47.5 + 200) * 9.81 / 1000, abs=0.01)
     assert held_by_the_environment(solution) == pytest.approx([0.0, 0.0, weight], abs=0.01)
@@ -99,6 +101,15 @@ def test_the_caddys_hooks_hang_over_the_seat_backs() -> None:
     depth = deepest(solution)
     assert max(depth.values()) < 1.0, depth
     assert solution.contacts  # the hooks rest on the seat backs
+    # each contact is one touching region, drawn where it is: its point lies on the
+    # seats' surface (within 5 mm: the mean of a region's points on a curved back),
+    # not between the caddy's two handles in mid-air, where one mean of both once was
+    seats = solution.model.part_index("seats")
+    frame = solution.frames[seats]
+    grid = contact_grid(solution.model.parts[seats].spec)
+    points = np.array([contact.point for contact in solution.contacts])
+    distance = grid.sample((points - frame[:3, 3]) @ frame[:3, :3])[0]
+    assert np.all(np.abs(distance) < 5.0), distance
     weight = float(weight_newtons(solution.masses).sum())
     assert held_by_the_environment(solution) == pytest.approx([0.0, 0.0, weight], abs=0.01)
 
@@ -384,3 +395,16 @@ def test_a_light_post_on_a_small_foot_falls_over(tmp_path: Path) -> None:
     reach = 0.0589 * 63.5 / 0.196 * max(abs(np.cos(phi)), abs(np.sin(phi)))
     assert beyond == pytest.approx(reach - 10.0, abs=1.5)
     assert topple.span is not None and topple.span.line == 20  # connect post.foot -- floor
+
+
+def test_touching_points_are_grouped_by_region() -> None:
+    """`_regions`: points chained within REGION_MM (20 mm) are one contact;
+    two handles 300 mm apart are two. A chain 0, 15, 30 mm along x is one
+    region (each within 20 of the next, though the ends are 30 apart); a
+    point 300 mm away is another."""
+    from fabhal.solve.contacts import _regions
+
+    points = np.array([[0.0, 0, 0], [15.0, 0, 0], [30.0, 0, 0], [330.0, 0, 0]])
+    regions = sorted(region.tolist() for region in _regions(points))
+    assert regions == [[0, 1, 2], [3]]
+    assert _regions(np.zeros((0, 3))) == []
