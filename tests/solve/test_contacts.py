@@ -398,13 +398,14 @@ def test_a_light_post_on_a_small_foot_falls_over(tmp_path: Path) -> None:
 
 
 def test_touching_points_are_grouped_by_region() -> None:
-    """`_regions`: points chained within REGION_MM (20 mm) are one contact;
-    two handles 300 mm apart are two. A chain 0, 15, 30 mm along x is one
-    region (each within 20 of the next, though the ends are 30 apart); a
-    point 300 mm away is another."""
+    """`_regions`: points in the same or neighbouring 20 mm cubes are one
+    contact, and chains of such; two handles 300 mm apart are two. A chain at
+    x = 1, 21, 41, 61 mm (cubes 0, 1, 2, 3: each beside the next) is one
+    region though its ends are 60 mm apart; a point at x = 330 (cube 16)
+    another; so is one at x = 101 (cube 5: two cubes past the chain's end)."""
     from fabhal.solve.contacts import _regions
 
-    points = np.array([[0.0, 0, 0], [15.0, 0, 0], [30.0, 0, 0], [330.0, 0, 0]])
+    points = np.array([[1.0, 1, 1], [21.0, 1, 1], [41.0, 1, 1], [61.0, 1, 1], [330.0, 1, 1], [101.0, 1, 1]])
     regions = sorted(region.tolist() for region in _regions(points))
-    assert regions == [[0, 1, 2], [3]]
+    assert regions == [[0, 1, 2, 3], [4], [5]]
     assert _regions(np.zeros((0, 3))) == []
