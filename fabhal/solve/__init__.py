@@ -613,18 +613,18 @@ def _settle(
     leaning: frozenset[frozenset[int]] = frozenset(),
 ) -> Settled:
     """`_settle_with` the contact springs against the environment and between the
-    movable parts that `leaning` pairs, then checked with the check's finer
-    points (fabhal/solve/contacts.py `check`), and settled again from the same
-    start (up to CONTACT_ROUNDS in all) where the check finds what the settle's
-    points missed: where two other movable parts are more than OVERLAP_KEPT_MM
+    movable parts that `leaning` pairs; then settled again from the same start
+    (up to CONTACT_ROUNDS in all) with more contact where the result shows it
+    is needed. Where two other movable parts are more than OVERLAP_KEPT_MM
     inside each other, their springs are switched on too (the one then leans
-    on the other, which carries it), and where a part is inside anything
-    between its settle's points (an edge, a wire), the check's points there
-    join them (`Pairs.refined`). Not parts already inside each other at the
-    start: placed so (two objects stood on one spot), no motion led there, and
-    the springs would push them apart any way (E508 says it). Springs between
-    movable parts are switched on only where needed: on everywhere, grazing
-    contacts in a loop made the settles crawl (the reading nook: 5000
+    on the other, which carries it). Where the check's finer points
+    (fabhal/solve/contacts.py `check`) find a part inside what its springs act
+    against, between its settle's points (an edge, a wire), the check's points
+    there join them (`Pairs.refined`). Not parts already inside each other at
+    the start: placed so (two objects stood on one spot), no motion led there,
+    and the springs would push them apart any way (E508 says it). Springs
+    between movable parts are switched on only where needed: on everywhere,
+    grazing contacts in a loop made the settles crawl (the reading nook: 5000
     evaluations instead of 300). The result carries the refined pairs."""
     model = step1.model
     placed_inside = _parts_inside(model, x, pairs, masses)
