@@ -642,11 +642,17 @@ def _settle(
 def _parts_inside(model: Model, x: Array, pairs: Pairs, masses: Array) -> frozenset[frozenset[int]]:
     """The movable parts whose settle's points are more than OVERLAP_KEPT_MM
     inside each other at x, in pairs."""
-    return frozenset(
-        frozenset((c.part, c.rests_on))
+    return frozenset(frozenset((part, other)) for part, other, _ in _in_each_other(model, x, pairs, masses))
+
+
+def _in_each_other(model: Model, x: Array, pairs: Pairs, masses: Array) -> list[tuple[int, int, float]]:
+    """(part, other movable part, depth mm) where the settle's points are more
+    than OVERLAP_KEPT_MM inside."""
+    return [
+        (c.part, c.rests_on, c.depth)
         for c in contacts_at(model, x, pairs, _weight(masses))
         if c.depth > OVERLAP_KEPT_MM and not model.parts[c.rests_on].environment
-    )
+    ]
 
 
 def _missed(model: Model, x: Array, pairs: Pairs, leaning: frozenset[frozenset[int]]) -> dict[int, Array]:
@@ -672,12 +678,7 @@ def _overlaps(model: Model, x: Array, pairs: Pairs, masses: Array) -> list[tuple
         for overlap in check(model, x, pairs).overlaps(pairs, OVERLAP_KEPT_MM)
         if model.parts[overlap[1]].environment
     ]
-    in_parts = [
-        (c.part, c.rests_on, c.depth)
-        for c in contacts_at(model, x, pairs, _weight(masses))
-        if c.depth > OVERLAP_KEPT_MM and not model.parts[c.rests_on].environment
-    ]
-    return sorted(in_world + in_parts, key=lambda overlap: -overlap[2])
+    return sorted(in_world + _in_each_other(model, x, pairs, masses), key=lambda overlap: -overlap[2])
 
 
 def _springs(model: Model, pairs: Pairs, leaning: frozenset[frozenset[int]]) -> Pairs:

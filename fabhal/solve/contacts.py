@@ -28,6 +28,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from functools import cached_property
+from typing import TypeVar
 
 import numpy as np
 from numpy.typing import NDArray
@@ -41,6 +42,7 @@ from fabhal.primitives import Primitive
 from fabhal.solve.energy import Energy
 
 Index = NDArray[np.intp]
+T = TypeVar("T")
 
 # how far the environment gives under the assembly's whole weight on one point
 # (mm): stiff enough that what rests on a wall enters it well under a millimetre
@@ -96,6 +98,10 @@ class Pairs:
 
     @cached_property
     def last_inside(self) -> dict[bytes, Touching]:
+        return {}
+
+    @cached_property
+    def last_checked(self) -> dict[bytes, Checked]:
         return {}
 
     def refined(self, deep: dict[int, Array]) -> Pairs:
@@ -298,13 +304,17 @@ def _inside(model: Model, fwd: Forward, pairs: Pairs) -> Touching:
     looked at a kind at a time (one grid lookup for all the S-hooks of a chain).
     The last answer is kept: the settle's energy, its verification and the
     report's contacts ask at the same place."""
-    key = fwd.frames.tobytes()
-    last = pairs.last_inside.get(key)
-    if last is None:
-        last = _look_inside(model, fwd, pairs)
-        pairs.last_inside.clear()
-        pairs.last_inside[key] = last
-    return last
+    return _remembered(pairs.last_inside, fwd.frames.tobytes(), lambda: _look_inside(model, fwd, pairs))
+
+
+def _remembered(last: dict[bytes, T], key: bytes, compute: Callable[[], T]) -> T:
+    """The answer `last` keeps for configuration `key`, else `compute()`'s, kept
+    instead (one configuration at a time: the one asked about again)."""
+    if key not in last:
+        answer = compute()
+        last.clear()
+        last[key] = answer
+    return last[key]
 
 
 def _kinds(pairs: Pairs, fwd: Forward, check: bool = False) -> list[list[int]]:
@@ -426,8 +436,14 @@ class Checked:
 def check(model: Model, x: Array, pairs: Pairs) -> Checked:
     """The check's points (about 3 mm apart) against every obstacle near: the
     measure of whether parts are inside each other or the world (E508), finer
-    than the settle's springs, which it refines where they missed."""
+    than the settle's springs, which it refines where they missed. The last
+    answer is kept: the settle's refinement and the final E508 ask at the same
+    place."""
     fwd = model.forward(x)
+    return _remembered(pairs.last_checked, fwd.frames.tobytes(), lambda: _look_finely(fwd, pairs))
+
+
+def _look_finely(fwd: Forward, pairs: Pairs) -> Checked:
     depth = np.zeros(len(pairs))
     deep: dict[int, Array] = {}
     for group in _kinds(pairs, fwd, check=True):
