@@ -94,6 +94,48 @@ def test_reading_nook_is_aimed_and_says_so_briefly() -> None:
     assert named >= 1
 
 
+def test_reading_nook_says_where_its_chains_cross() -> None:
+    """The nook's two chains converge on the hoop, and a ring of one crosses a
+    link of the other between the settle's contact points (40 mm apart on a
+    ring): W508 names them and the depth, and the status stays `solved`.
+
+    Measured independently of the distance grids: 40,000 points on the ring's
+    mesh (about 1.3 mm apart) against 200,000 on the link's (0.14 mm apart),
+    each point's depth below the nearest link point's face normal (exact for a
+    point nearer a face than its curvature radius, the link's wire being 8 mm
+    thick). Hand bound on the difference: the check's points lie 3 mm apart, so
+    the deepest may fall up to about 2.1 mm (half a diagonal) from one, where two
+    crossed 4 mm-radius wires are shallower by s^2 / 2r = 2.1^2 / 8 = 0.55 mm,
+    plus under a cell of trilinear rounding near the wire (2 mm cells): the
+    warning's depth is a lower bound within 1.5 mm."""
+    import re
+
+    import trimesh
+    from scipy.spatial import cKDTree
+
+    from fabhal import meshes
+
+    result = solved("reading_nook")
+    assert result.status == "solved"
+    (warned,) = [d for d in result.diagnostics if d.code == "W508"]
+    part, other = re.findall(r"`(\w+)`", warned.message)[:2]
+    depth = float(re.search(r"by ([0-9.]+) mm", warned.message).group(1))
+    assert 1.0 < depth <= 5.0
+    assert warned.span is not None and warned.span.line == 52  # the target's line, as E508
+    model, frames = result.solution.model, result.solution.frames
+    mine, theirs = model.part_index(part), model.part_index(other)
+    points = np.asarray(
+        trimesh.sample.sample_surface(meshes.part_mesh(model.parts[mine].spec), 40_000, seed=1)[0]
+    )
+    obstacle = meshes.part_mesh(model.parts[theirs].spec)
+    surface, faces = trimesh.sample.sample_surface(obstacle, 200_000, seed=2)
+    world = points @ frames[mine][:3, :3].T + frames[mine][:3, 3]
+    local = (world - frames[theirs][:3, 3]) @ frames[theirs][:3, :3]
+    nearest = cKDTree(surface).query(local)[1]
+    inside = -np.einsum("ij,ij->i", local - surface[nearest], obstacle.face_normals[faces[nearest]])
+    assert depth - 0.2 <= inside.max() <= depth + 1.5
+
+
 def test_bird_feeder_hangs_between_the_two_wall_hooks() -> None:
     result = solved("bird_feeder")
     left, right, feeder = (position(result, p) for p in ("left.e", "right.e", "feeder"))

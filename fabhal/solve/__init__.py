@@ -64,6 +64,11 @@ LOOP_KEPT_MM = 1e-3  # a result whose loops are open by more is never solved (E5
 # a result with a part this deep in another is never solved (E508): five times the
 # contact springs' give under the assembly's whole weight (fabhal/solve/contacts.py)
 OVERLAP_KEPT_MM = 1.0
+# two movable parts that the check's points find crossing by more than OVERLAP_KEPT_MM
+# and up to this (mm) where the settle's points do not (their springs act at those
+# points only): W508, a wire's edge passing between the points of a ring or link
+# (the reading nook's: 2.8 mm); deeper is a part through another (E508)
+CROSSING_WARNED_MM = 5.0
 # settles repeated with more contact (`_settle`): each round adds the pairs of parts
 # found inside each other and the check's points where the settle's missed a contact
 CONTACT_ROUNDS = 3
@@ -414,6 +419,9 @@ def _solve_once(model: Model, options: SolveOptions, loop_start: Array | None) -
         )
     overlaps = _overlaps(model, x, settled.pairs or pairs, masses)
     diagnostics.extend(_overlap_diagnostic(model, *overlap) for overlap in overlaps[:1])
+    if not overlaps:
+        crossings = _crossings(model, x, settled.pairs or pairs)
+        diagnostics.extend(_crossing_diagnostic(model, *crossing) for crossing in crossings[:1])
     if any(not isinstance(fall, Lean | Slip) for fall in settled.falls):
         status = "falls_apart"
     elif settled.falls:
@@ -670,15 +678,34 @@ def _missed(model: Model, x: Array, pairs: Pairs, leaning: frozenset[frozenset[i
 
 def _overlaps(model: Model, x: Array, pairs: Pairs, masses: Array) -> list[tuple[int, int, float]]:
     """(part, obstacle, depth mm) deeper than OVERLAP_KEPT_MM inside, deepest first:
-    in the environment by the check's points, parts in each other by the
-    settle's (the check's find the reading nook's wire rings crossing its links
-    by up to 2.8 mm, and their springs made its settle crawl: docs/physics.md)."""
-    in_world = [
+    in the environment by the check's points; parts in each other by the
+    settle's, or by the check's deeper than CROSSING_WARNED_MM (the check's find
+    the reading nook's wire rings crossing its links by up to 2.8 mm, and their
+    springs made its settle crawl: docs/physics.md; `_crossings`)."""
+    fine = check(model, x, pairs).overlaps(pairs, OVERLAP_KEPT_MM)
+    in_world = [overlap for overlap in fine if model.parts[overlap[1]].environment]
+    through = [
+        overlap
+        for overlap in fine
+        if not model.parts[overlap[1]].environment and overlap[2] > CROSSING_WARNED_MM
+    ]
+    found = {frozenset(overlap[:2]) for overlap in through}
+    coarse = [
+        overlap for overlap in _in_each_other(model, x, pairs, masses) if frozenset(overlap[:2]) not in found
+    ]
+    return sorted(in_world + through + coarse, key=lambda overlap: -overlap[2])
+
+
+def _crossings(model: Model, x: Array, pairs: Pairs) -> list[tuple[int, int, float]]:
+    """(part, other movable part, depth mm) that the check's points find crossing
+    by more than OVERLAP_KEPT_MM and at most CROSSING_WARNED_MM, deepest first
+    (W508), where `_overlaps` found nothing: the settle's points passed either
+    side of a wire."""
+    return [
         overlap
         for overlap in check(model, x, pairs).overlaps(pairs, OVERLAP_KEPT_MM)
-        if model.parts[overlap[1]].environment
+        if not model.parts[overlap[1]].environment and overlap[2] <= CROSSING_WARNED_MM
     ]
-    return sorted(in_world + _in_each_other(model, x, pairs, masses), key=lambda overlap: -overlap[2])
 
 
 def _springs(model: Model, pairs: Pairs, leaning: frozenset[frozenset[int]]) -> Pairs:
@@ -1210,6 +1237,18 @@ def _overlap_diagnostic(model: Model, part_index: int, other_index: int, depth: 
         model.program.targets[0].span,
         "the connections hold them where they would pass through each other: give them room (another "
         "place on what holds them, a longer part), or try another --seed",
+    )
+
+
+def _crossing_diagnostic(model: Model, part_index: int, other_index: int, depth: float) -> Diagnostic:
+    part, other = (model.parts[i] for i in (part_index, other_index))
+    return warning(
+        "W508",
+        f"`{part.name}` crosses `{other.name}` by {depth:.1f} mm where the solver stopped (found by "
+        "the fine check, between the points its contacts act at)",
+        model.program.targets[0].span,
+        f"the real parts push each other aside by about {depth:.0f} mm and what hangs from them moves "
+        "with them: build it and look; give them room (another place on what holds them) to be sure",
     )
 
 

@@ -178,6 +178,38 @@ def test_parts_left_inside_each_other_are_never_solved(tmp_path: Path) -> None:
     assert overlap.span is not None and overlap.span.line == 16
 
 
+@pytest.mark.parametrize(("fine_depth", "code"), [(0.9, None), (2.8, "W508"), (5.0, "W508"), (5.1, "E508")])
+def test_a_crossing_only_the_fine_check_sees_warns_up_to_a_wires_thickness(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, fine_depth: float, code: str | None
+) -> None:
+    """Where the settle's points see the two parts apart and the check's find
+    them crossing by d mm: up to OVERLAP_KEPT_MM (1 mm) nothing; above it and
+    up to CROSSING_WARNED_MM (5 mm, a wire's edge between a ring's points) W508,
+    the status kept; deeper E508, never solved. The check's answer is set (the
+    classification under test, not the grids: the nook's real crossing is
+    measured in tests/test_gallery.py)."""
+    import fabhal.solve as solve_module
+    from fabhal.solve.contacts import Checked
+
+    program = tmp_path / "shelf.fhl"
+    program.write_text(TWO_ON_A_SHELF)
+    model = api.solve(program).solution.model
+    pairs = contact_pairs(model)
+    between = [k for k in range(len(pairs)) if not model.parts[int(pairs.obstacles[k])].environment]
+    depth = np.zeros(len(pairs))
+    depth[between[0]] = fine_depth
+    monkeypatch.setattr(solve_module, "check", lambda *_: Checked(depth, {}))
+    monkeypatch.setattr(solve_module, "_in_each_other", lambda *_: [])
+    x = np.zeros(len(model.variables))
+    overlaps = solve_module._overlaps(model, x, pairs, np.zeros(len(model.parts)))
+    crossings = solve_module._crossings(model, x, pairs)
+    found = "E508" if overlaps else "W508" if crossings else None
+    assert found == code
+    for part, other, measured in overlaps + crossings:
+        assert {part, other} == {int(pairs.parts[between[0]]), int(pairs.obstacles[between[0]])}
+        assert measured == fine_depth
+
+
 def test_building_a_contact_grid_is_announced(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     """A grid is built once per machine (0.1-10 s): with an empty cache the
     solve says whose shape it is measuring, once per part type, and not again
