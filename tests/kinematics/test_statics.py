@@ -77,3 +77,57 @@ def test_the_forces_do_not_depend_on_the_order_of_the_connections() -> None:
         ).forces
 
     np.testing.assert_allclose(solve([0, 1]), solve([1, 0])[::-1], atol=1e-12)
+
+
+def test_a_long_chain_solved_by_its_normal_equations_carries_everything_below() -> None:
+    """60 parts of 1 N hang one below the other from the environment (part 0), each
+    connection 41 mm below the last, each free to swing about x and y at its
+    point: 360 unknowns, past NORMAL_EQUATIONS_UNKNOWNS, a tree (full column
+    rank). By hand: connection k (from the top, 0-based) carries the 60 - k
+    parts below it, straight down, no moments. Tolerance 1e-9 N, as the small
+    chain above: the system's condition number is about 150 here, so its
+    normal equations lose 4-5 of 16 digits."""
+    from fabhal.kinematics.statics import NORMAL_EQUATIONS_UNKNOWNS
+
+    n = 60
+    assert 6 * n >= NORMAL_EQUATIONS_UNKNOWNS
+    points = np.array([[0.0, 0.0, -41.0 * k] for k in range(n)])
+    swings = np.repeat(np.eye(3)[:2][None], n, axis=0).reshape(-1, 3)
+    wrenches = joint_wrenches(
+        part_a=np.arange(1, n + 1),
+        part_b=np.arange(n),
+        points=points,
+        movable=np.arange(n + 1) > 0,
+        loads=np.array([[0.0, 0.0, 0.0]] + [[0.0, 0.0, -1.0]] * n),
+        centres=np.array([[0.0, 0.0, 0.0]] + [[0.0, 0.0, -41.0 * k - 20.5] for k in range(n)]),
+        free_joint=np.repeat(np.arange(n), 2),
+        free_velocity=np.zeros((2 * n, 3)),
+        free_rotation=swings,
+    )
+    expected = np.zeros((n, 3))
+    expected[:, 2] = -(n - np.arange(n))
+    np.testing.assert_allclose(wrenches.forces, expected, atol=1e-9)
+    np.testing.assert_allclose(wrenches.moments, 0.0, atol=1e-9)
+    assert wrenches.imbalance < 1e-9
+
+
+def test_many_bars_on_two_pivots_keep_the_smallest_reactions() -> None:
+    """50 bars of 10 N, each on two pivots as the lever-rule test above (centre at
+    x = 150: 2.5 N and 7.5 N): 600 unknowns, but each bar's pivots leave forces
+    along the bar indeterminate (a loop's own), so the normal equations are
+    singular and the SVD's minimum norm decides: those forces 0, the lever rule
+    exact. Tolerance 1e-9 N."""
+    bars = 50
+    wrenches = joint_wrenches(
+        part_a=np.zeros(2 * bars, dtype=int),
+        part_b=np.repeat(np.arange(1, bars + 1), 2),
+        points=np.tile([[0.0, 0.0, 0.0], [200.0, 0.0, 0.0]], (bars, 1)),
+        movable=np.arange(bars + 1) > 0,
+        loads=np.array([[0.0, 0.0, 0.0]] + [[0.0, 0.0, -10.0]] * bars),
+        centres=np.array([[0.0, 0.0, 0.0]] + [[150.0, 0.0, 0.0]] * bars),
+        free_joint=np.arange(2 * bars),
+        free_velocity=np.zeros((2 * bars, 3)),
+        free_rotation=np.tile([0.0, 1.0, 0.0], (2 * bars, 1)),
+    )
+    np.testing.assert_allclose(wrenches.forces[:, 2], np.tile([2.5, 7.5], bars), atol=1e-9)
+    np.testing.assert_allclose(wrenches.forces[:, :2], 0.0, atol=1e-9)
