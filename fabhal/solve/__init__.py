@@ -363,7 +363,7 @@ def _solve_once(model: Model, options: SolveOptions, loop_start: Array | None) -
         settled = (
             Settled(x, np.inf, (), ())
             if step1.out_of_time()
-            else _settle(step1, x, masses, centres, goal, pairs)
+            else _settle(step1, x, masses, centres, goal, pairs, tell=_told(options, "step 2"))
         )
         if fit.runner_up is not None and not step1.out_of_time():
             options.report("step 2: settling from another start")
@@ -488,7 +488,16 @@ def _aimed(
             # the aim itself came no nearer: settled from there it would not either (from a
             # result that leans on a stop, reaching rest is the gain, not nearness)
             break
-        aimed = _settle(step1, start, masses, centres, goal, best.pairs or pairs, leaning=best.leaning)
+        aimed = _settle(
+            step1,
+            start,
+            masses,
+            centres,
+            goal,
+            best.pairs or pairs,
+            leaning=best.leaning,
+            tell=_told(options, "step 3"),
+        )
         ranks = [_rank(goal, model.part_frames(s.x), s) for s in (aimed, best)]
         inside = bool(_overlaps(model, aimed.x, aimed.pairs or pairs, masses))
         if ranks[0] >= ranks[1] or inside:
@@ -619,6 +628,7 @@ def _settle(
     pairs: Pairs,
     thorough: bool = True,
     leaning: frozenset[frozenset[int]] = frozenset(),
+    tell: Callable[[str], None] | None = None,
 ) -> Settled:
     """`_settle_with` the contact springs against the environment and between the
     movable parts that `leaning` pairs; then settled again from the same start
@@ -633,18 +643,52 @@ def _settle(
     and the springs would push them apart any way (E508 says it). Springs
     between movable parts are switched on only where needed: on everywhere,
     grazing contacts in a loop made the settles crawl (the reading nook: 5000
-    evaluations instead of 300). The result carries the refined pairs."""
+    evaluations instead of 300). The result carries the refined pairs; `tell`
+    hears why a round is repeated (a settle of the caddy takes seconds)."""
     model = step1.model
     placed_inside = _parts_inside(model, x, pairs, masses)
-    for _ in range(CONTACT_ROUNDS):
+    for repeat in range(2, CONTACT_ROUNDS + 2):
         springs = _springs(model, pairs, leaning)
         settled = _settle_with(step1, x, masses, centres, goal, springs, thorough, leaning)
         inside = _parts_inside(model, settled.x, pairs, masses) - placed_inside
-        refined = pairs.refined(_missed(model, settled.x, pairs, leaning | inside))
+        missed = _missed(model, settled.x, pairs, leaning | inside)
+        refined = pairs.refined(missed)
         if (inside <= leaning and refined.size() == pairs.size()) or step1.out_of_time():
             break
+        if tell is not None and repeat <= CONTACT_ROUNDS:  # another round follows
+            tell(_contact_round_note(model, inside - leaning, missed, pairs, repeat))
         pairs, leaning = refined, leaning | inside
     return replace(settled, pairs=pairs)
+
+
+def _contact_round_note(
+    model: Model, new_leaning: frozenset[frozenset[int]], missed: dict[int, Array], pairs: Pairs, repeat: int
+) -> str:
+    """Why `_settle` settles again: the parts it found inside each other, which now
+    lean on each other, and where the check's points found a part inside what
+    its springs act against."""
+    names = [p.name for p in model.parts]
+    leans = sorted(_listed([names[i] for i in sorted(both)]) for both in new_leaning)
+    inside: dict[str, list[str]] = {}
+    for k in sorted(missed):
+        if frozenset((int(pairs.parts[k]), int(pairs.obstacles[k]))) in new_leaning:
+            continue  # said as leaning: their springs come on with the check's points there
+        inside.setdefault(names[int(pairs.obstacles[k])], []).append(names[int(pairs.parts[k])])
+    why = [f"{both} leaning on each other" for both in leans] + [
+        f"finer contact where {_listed(parts)} lay inside `{obstacle}`" for obstacle, parts in inside.items()
+    ]
+    return f"settling again, round {repeat} of at most {CONTACT_ROUNDS}: " + "; ".join(why)
+
+
+def _listed(names: list[str]) -> str:
+    """`a`, `b` and `c`."""
+    quoted = [f"`{name}`" for name in names]
+    return quoted[0] if len(quoted) == 1 else ", ".join(quoted[:-1]) + " and " + quoted[-1]
+
+
+def _told(options: SolveOptions, stage: str) -> Callable[[str], None]:
+    """`options.report` of what a stage is doing, with the stage's name."""
+    return lambda doing: options.report(f"{stage}: {doing}")
 
 
 def _parts_inside(model: Model, x: Array, pairs: Pairs, masses: Array) -> frozenset[frozenset[int]]:
