@@ -72,6 +72,7 @@ CROSSING_WARNED_MM = 5.0
 # settles repeated with more contact (`_settle`): each round adds the pairs of parts
 # found inside each other and the check's points where the settle's missed a contact
 CONTACT_ROUNDS = 3
+ROUND_REASONS_TOLD = 3  # a status line names this many reasons for a round (a hoop has dozens)
 EXTRA_STARTS = 3  # seeded random starts for step 1, besides the spread-out defaults
 # a random start whose loops take longer to close than this is dropped: on the gallery
 # those that close do so within 26 evaluations, and one that fails spends the whole budget
@@ -677,7 +678,12 @@ def _contact_round_note(
     why = [f"{both} leaning on each other" for both in leans] + [
         f"finer contact where {_listed(parts)} lay inside `{obstacle}`" for obstacle, parts in inside.items()
     ]
-    return f"settling again, round {repeat} of at most {CONTACT_ROUNDS}: " + "; ".join(why)
+    more = f"; and {len(why) - ROUND_REASONS_TOLD} more" if len(why) > ROUND_REASONS_TOLD else ""
+    return (
+        f"settling again, round {repeat} of at most {CONTACT_ROUNDS}: "
+        + "; ".join(why[:ROUND_REASONS_TOLD])
+        + more
+    )
 
 
 def _listed(names: list[str]) -> str:

@@ -368,6 +368,26 @@ def test_a_settle_repeated_for_contact_says_why(tmp_path: Path) -> None:
     assert all(f"of at most {CONTACT_ROUNDS}:" in line for line in repeats)
 
 
+def test_a_repeated_round_names_three_reasons_and_counts_the_rest() -> None:
+    """The 12-chain hoop repeats a round for two dozen contacts: the status line
+    names ROUND_REASONS_TOLD (3) of them, the parts found inside one obstacle
+    together, and says how many more; a newly leaning pair is said once (not
+    again as finer contact between the same two)."""
+    from types import SimpleNamespace
+
+    from fabhal.solve import ROUND_REASONS_TOLD, _contact_round_note
+
+    model = SimpleNamespace(parts=[SimpleNamespace(name=f"p{i}") for i in range(8)])
+    pairs = SimpleNamespace(parts=np.array([0, 1, 2, 3, 4, 1]), obstacles=np.array([7, 7, 6, 6, 5, 0]))
+    missed = {k: np.zeros((1, 3)) for k in range(6)}
+    note = _contact_round_note(model, frozenset({frozenset((0, 1))}), missed, pairs, 2)  # type: ignore[arg-type]
+    assert ROUND_REASONS_TOLD == 3
+    assert note == (
+        "settling again, round 2 of at most 3: `p0` and `p1` leaning on each other; finer contact where "
+        "`p0` and `p1` lay inside `p7`; finer contact where `p2` and `p3` lay inside `p6`; and 1 more"
+    )
+
+
 def test_a_pole_leans_on_a_heavy_post(tmp_path: Path) -> None:
     """A pole (300 g) hangs from a bar by a hook whose arc centre is its pivot;
     its ball (radius 15) is 230 mm below. A post (radius 20, 2 kg) stands with
