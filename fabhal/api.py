@@ -114,14 +114,16 @@ def solve_checked(
     progress: Callable[[str], None] | None = None,
     two_step: bool = False,
     start: Array | None = None,
+    explain: bool = True,
 ) -> SolveResult:
     """`solve` for a program `check` has already checked (with the same `seed`):
     a family's members and designs are checked first, to reject some without
     solving, and are then solved without checking them again. `time_limit`
-    counts from here."""
+    counts from here. Not `explain`: a target out of reach is said (W505)
+    without the fit that finds what limits it."""
     deadline = time.monotonic() + time_limit if time_limit is not None else float("inf")
     timing = {"parse_s": 0.0, "check_s": 0.0}
-    return _solve(result, seed, time_limit, deadline, gravity, progress, two_step, start, timing)
+    return _solve(result, seed, time_limit, deadline, gravity, progress, two_step, start, timing, explain)
 
 
 def _solve(
@@ -134,6 +136,7 @@ def _solve(
     two_step: bool,
     start: Array | None,
     timing: dict[str, float],
+    explain: bool = True,
 ) -> SolveResult:
     from fabhal.solve import NumericFailure, SolveOptions
     from fabhal.solve import solve as run_solver
@@ -156,6 +159,7 @@ def _solve(
         aim=not two_step,
         progress=progress,
         start=start,
+        explain=explain,
     )
     try:
         solution = run_solver(result.model, options, loops.x if loops is not None else None)

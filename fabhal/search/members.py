@@ -136,7 +136,10 @@ def solve_member(
     if first_error is not None:
         return _rejected(job, bindings, first_error, time.perf_counter() - started), None
     assert checked.flat is not None  # a program without errors has been elaborated
-    result = api.solve_checked(checked, job.seed, job.time_limit, two_step=job.two_step, start=start)
+    # a member's notes are kept as codes: W505 without the fit that says what limits the reach
+    result = api.solve_checked(
+        checked, job.seed, job.time_limit, two_step=job.two_step, start=start, explain=False
+    )
     elapsed = time.perf_counter() - started
     if result.status == "error":  # the solver failed (E505): counted with the rejected, by its code
         return _rejected(job, bindings, next(d for d in result.diagnostics if d.is_error), elapsed), None

@@ -128,6 +128,9 @@ class SolveOptions:
     # neighbouring member of a family, solved, whose settings this member may keep (`fabhal search
     # --smooth`); settled, aimed and verified from there as any start is
     start: Array | None = None
+    # say what limits a target out of reach (W505's help: a fit more); a family's members,
+    # whose notes `fabhal search` keeps as codes only, skip it
+    explain: bool = True
 
     def report(self, doing: str) -> None:
         if self.progress is not None:
@@ -353,8 +356,11 @@ def _solve_once(model: Model, options: SolveOptions, loop_start: Array | None) -
     elif not step1.out_of_time() and reach.out_of_reach(
         target_mod.errors(goal, target_mod.achieved(goal, model.part_frames(x)))
     ):
-        options.report("step 1: the target is out of reach; finding what limits it")
-        notes.append(reach.diagnose(step1, goal, x))
+        if options.explain:
+            options.report("step 1: the target is out of reach; finding what limits it")
+            notes.append(reach.diagnose(step1, goal, x))
+        else:
+            notes.append(reach.unexplained(model, goal, x))
 
     settled = Settled(x, None, (), ())
     if options.gravity:

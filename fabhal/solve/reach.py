@@ -37,16 +37,33 @@ def out_of_reach(errors: tuple[float, float]) -> bool:
     return position > REACH_MM or rotation > REACH_DEG
 
 
+def unexplained(model: Model, goal: target_mod.TargetGoal, x: Array) -> Diagnostic:
+    """W505 for step 1's best `x`, which is out of reach, without the fit that
+    tells what limits it (`diagnose`): for a family's members, whose notes
+    are kept as codes only."""
+    return warning(
+        "W505",
+        f"the target is out of reach: {_at_best(model, goal, x)}",
+        model.program.targets[0].span,
+        "`fabhal solve` of this program says what limits it",
+    )
+
+
+def _at_best(model: Model, goal: target_mod.TargetGoal, x: Array) -> str:
+    position, rotation = target_mod.errors(goal, target_mod.achieved(goal, model.part_frames(x)))
+    return f"at best the target is {position:.0f} mm and {rotation:.0f} degrees from it"
+
+
 def diagnose(problem: Problem, goal: target_mod.TargetGoal, x: Array) -> Diagnostic:
     """W505 for step 1's best `x`, which is out of reach."""
     model = problem.model
-    position, rotation = target_mod.errors(goal, target_mod.achieved(goal, model.part_frames(x)))
+    position = target_mod.errors(goal, target_mod.achieved(goal, model.part_frames(x)))[0]
     free_turn = replace(goal, rotation_weight=0.0)
     loose = problem.full(fit_target(problem, free_turn, [x[problem.free]], evaluations=REACH_EVALUATIONS).v)
     frames = model.part_frames(loose)
     loose_position = target_mod.errors(goal, target_mod.achieved(goal, frames))[0]
     target = model.program.targets[0]
-    at_best = f"at best the target is {position:.0f} mm and {rotation:.0f} degrees from it"
+    at_best = _at_best(model, goal, x)
     if min(loose_position, position) <= REACH_MM:  # turned freely it gets there: the rotation limits
         return warning(
             "W505",

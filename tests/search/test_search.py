@@ -63,6 +63,26 @@ def test_a_members_result_is_what_solving_it_alone_gives(searched: tuple[SearchO
     assert member.parts == 3  # three S-hooks; the rod is the place and the mug the target
 
 
+def test_a_member_out_of_reach_is_said_so_without_the_fit_that_explains_it(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """n = 1: one S-hook cannot bring the mug down to its request (101 mm short).
+    A member keeps its notes as codes, so the search says W505 without the
+    fit that finds what limits the reach (a fit more, about 7 % of a
+    clip-light member's solve): the same code, the same result to the bit."""
+    import fabhal.solve.reach as reach
+
+    bindings = {"radius": "2", "hook": "DoubleHook", "n": "1"}
+    explained = api.solve(FAMILY, bindings)
+    monkeypatch.setattr(reach, "diagnose", lambda *_: pytest.fail("the member was explained"))
+    checked = api.check(FAMILY, bindings)
+    member = api.solve_checked(checked, explain=False)
+    (said,) = [d for d in member.diagnostics if d.code == "W505"]
+    assert said.message == "the target is out of reach: at best the target is 101 mm and 34 degrees from it"
+    assert [d.code for d in member.diagnostics] == [d.code for d in explained.diagnostics]
+    assert (member.solution.x == explained.solution.x).all()
+
+
 def test_members_rank_by_settled_error_then_parts(searched: tuple[SearchOutcome, Path]) -> None:
     outcome, _ = searched
     ranked = rank(outcome.members)
