@@ -142,12 +142,19 @@ class Pairs:
         """The indices of the pairs whose balls meet, with the parts at `frames`."""
         if not self.pairs:
             return np.zeros(0, dtype=int)
-        centres = []
-        for owners, balls in ((self.parts, self.part_balls), (self.obstacles, self.obstacle_balls)):
-            rotation, origin = frames[owners, :3, :3], frames[owners, :3, 3]
-            centres.append(np.einsum("kij,kj->ki", rotation, balls[:, :3]) + origin)
-        gap = np.linalg.norm(centres[0] - centres[1], axis=1)
-        return np.flatnonzero(gap <= self.part_balls[:, 3] + self.obstacle_balls[:, 3])
+        owners, centres, reach = self._balls
+        placed = frames[owners]
+        world = np.einsum("kij,kj->ki", placed[:, :3, :3], centres) + placed[:, :3, 3]
+        gap = np.linalg.norm(world[: len(self.pairs)] - world[len(self.pairs) :], axis=1)
+        return np.flatnonzero(gap <= reach)
+
+    @cached_property
+    def _balls(self) -> tuple[Index, Array, Array]:
+        """Both sides' owners and ball centres stacked (parts, then obstacles: one
+        look-up of frames a call, asked at every evaluation), and each pair's reach."""
+        owners = np.concatenate([self.parts, self.obstacles])
+        centres = np.vstack([self.part_balls[:, :3], self.obstacle_balls[:, :3]])
+        return owners, centres, self.part_balls[:, 3] + self.obstacle_balls[:, 3]
 
 
 @dataclass(frozen=True)
@@ -268,8 +275,11 @@ def _distances(
     low, high = first.box
     flat = local.reshape(-1, 3)
     boxed = np.flatnonzero(np.all((flat >= low) & (flat <= high), axis=1))
+    distances = np.full(len(flat), np.inf)
+    if not len(boxed):  # most look-ups (a part near an obstacle's ball, outside its box)
+        return world, distances.reshape(len(group), -1), np.zeros((*local.shape[:2], 3))
     boxed = boxed[first.grid.could_be_inside(flat[boxed])]
-    distances, gradients = np.full(len(flat), np.inf), np.zeros((len(flat), 3))
+    gradients = np.zeros((len(flat), 3))
     distances[boxed], gradients[boxed] = first.grid.sample(flat[boxed])
     distance: Array = distances.reshape(len(group), -1)
     gradient = gradients.reshape(len(group), -1, 3) @ obstacle[:, :3, :3].transpose(0, 2, 1)

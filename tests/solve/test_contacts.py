@@ -44,6 +44,34 @@ def deepest(solution: Solution) -> dict[str, float]:
     return depth
 
 
+def test_the_pairs_looked_at_are_those_whose_balls_meet_and_far_ones_read_outside() -> None:
+    """At the paper towel holder's rest (the roll against the wall), every pair
+    whose bounding balls meet (distance of the centres, each carried by its
+    part's frame, at most the sum of the radii: written out here) is looked at,
+    and no other; a pair looked at whose points all lie outside the obstacle's
+    box reads +inf distances and zero gradients for every point (the quick
+    exit), as a pair reads where no point is near."""
+    solution = solved("paper_towel_holder.fhl")
+    model = solution.model
+    fwd = model.forward(solution.x, with_twists=True)
+    pairs = contact_pairs(model)
+    frames = fwd.frames
+    meet = []
+    for k in range(len(pairs)):
+        sides = ((pairs.parts[k], pairs.part_balls[k]), (pairs.obstacles[k], pairs.obstacle_balls[k]))
+        ends = [frames[owner, :3, :3] @ ball[:3] + frames[owner, :3, 3] for owner, ball in sides]
+        if np.linalg.norm(ends[0] - ends[1]) <= pairs.part_balls[k, 3] + pairs.obstacle_balls[k, 3]:
+            meet.append(k)
+    assert pairs.near(frames).tolist() == meet and meet
+    for k in meet:
+        world, distance, gradient = _distances(fwd, pairs, [k])
+        points = len(pairs.pairs[k].points)
+        assert world.shape == gradient.shape == (1, points, 3) and distance.shape == (1, points)
+        outside = ~np.isfinite(distance[0])
+        assert np.all(gradient[0][outside] == 0.0)
+    assert any(np.isfinite(_distances(fwd, pairs, [k])[1]).any() for k in meet)  # the wall is looked up
+
+
 def held_by_the_environment(solution: Solution) -> np.ndarray:
     """(3,) N: what the environment exerts on the assembly, through its
     connections (the force on the part's side) and its contacts."""
