@@ -83,6 +83,27 @@ def test_a_member_out_of_reach_is_said_so_without_the_fit_that_explains_it(
     assert (member.solution.x == explained.solution.x).all()
 
 
+def test_members_of_one_program_share_its_part_library(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The part library depends on the program's text, not on its params: the
+    members of a family (one program read once) build it once, and each
+    member's check is what checking it alone gives (same diagnostics, same
+    model). A program read again is a new program: built again."""
+    import fabhal.api as api_module
+    from fabhal.load import load_program
+
+    built: list[object] = []
+    real = api_module.build_library
+    monkeypatch.setattr(api_module, "build_library", lambda program: built.append(program) or real(program))
+    program = load_program(FAMILY)
+    members = [{"radius": "2", "hook": "DoubleHook", "n": n} for n in ("1", "2", "3")]
+    checks = [api.check(program, bindings) for bindings in members]
+    assert built == [program]
+    alone = api.check(load_program(FAMILY), members[2])
+    assert len(built) == 2
+    assert [d.code for d in checks[2].diagnostics] == [d.code for d in alone.diagnostics]
+    assert [v.name for v in checks[2].model.variables] == [v.name for v in alone.model.variables]
+
+
 def test_members_rank_by_settled_error_then_parts(searched: tuple[SearchOutcome, Path]) -> None:
     outcome, _ = searched
     ranked = rank(outcome.members)
