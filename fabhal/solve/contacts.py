@@ -341,6 +341,8 @@ def _look_inside(model: Model, fwd: Forward, pairs: Pairs) -> Touching:
     for group in _kinds(pairs, fwd):
         world, distance, normal = _distances(fwd, pairs, group)
         inside = distance < 0.0
+        if not inside.any():  # the usual answer: nothing to gather
+            continue
         which = np.broadcast_to(np.array(group)[:, None], inside.shape)[inside]
         found.append((which, world[inside], -distance[inside], normal[inside]))
     if not found:
