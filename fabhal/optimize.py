@@ -270,9 +270,7 @@ def minimize(
 
 def _finite(value: float, gradient: Array, hessian: Array | None) -> bool:
     return bool(
-        np.isfinite(value)
-        and np.all(np.isfinite(gradient))
-        and (hessian is None or np.all(np.isfinite(hessian)))
+        np.isfinite(value) and np.isfinite(gradient).all() and (hessian is None or np.isfinite(hessian).all())
     )
 
 
@@ -409,7 +407,7 @@ class _Iteration:
         first = alpha = min(1.0, _longest(problem, u, step), min(self.max_step, self.radius) / length)
         g_rows, h = problem.linear_rows()
         while alpha > 1e-10:
-            clipped = np.clip(u + alpha * step, problem.low, problem.high)
+            clipped = (u + alpha * step).clip(problem.low, problem.high)
             moved = clipped - u
             slope = float(gradient @ moved)
             trial, c, a, feasible = (
@@ -417,7 +415,7 @@ class _Iteration:
                 if slope < 0.0  # else bent too far by the bounds: shorter, they bend it less
                 else (clipped, np.zeros(0), np.zeros((0, 0)), False)
             )
-            if feasible and np.all(g_rows @ trial + h >= -ACTIVE):
+            if feasible and (g_rows @ trial + h >= -ACTIVE).all():
                 value_new, gradient_new, hessian = problem.evaluate(trial)
                 if _finite(value_new, gradient_new, hessian) and value_new <= value + ARMIJO * slope:
                     if not self.bfgs:

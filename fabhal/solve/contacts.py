@@ -274,7 +274,7 @@ def _distances(
     # inside, can be inside it: the rest are not looked up (their distances stay +inf)
     low, high = first.box
     flat = local.reshape(-1, 3)
-    boxed = np.flatnonzero(np.all((flat >= low) & (flat <= high), axis=1))
+    boxed = np.flatnonzero(((flat >= low) & (flat <= high)).all(axis=1))
     distances = np.full(len(flat), np.inf)
     if not len(boxed):  # most look-ups (a part near an obstacle's ball, outside its box)
         return world, distances.reshape(len(group), -1), np.zeros((*local.shape[:2], 3))

@@ -86,7 +86,7 @@ def _angle_deg(goal: TargetGoal, rotation: Array) -> float:
 
 
 def _geodesic(a: Array, b: Array) -> float:
-    cosine = (float(np.trace(a.T @ b)) - 1.0) / 2.0
+    cosine = (float((a.T @ b).trace()) - 1.0) / 2.0
     return math.degrees(math.acos(min(1.0, max(-1.0, cosine))))
 
 
