@@ -174,7 +174,8 @@ class Model:
         # a level of the tree or a round of pointer jumping (`_tree_jumps`)
         frames[edges.child] = local[edges.parent_side] @ edges.offset @ invert(local[edges.child_side])
         for jump in layout.jumps:  # numpy gathers the ancestors before writing: all at once
-            frames[jump.pending] = frames[jump.ancestor] @ frames[jump.pending]
+            pending, ancestor = jump.indices
+            frames[pending] = frames[ancestor] @ frames[pending]
         if d_local is None:
             return Forward(frames, local, None, None)
         # the twist of a DoF turns its side's part about that side's connector:
@@ -443,6 +444,15 @@ class Jump:
 
     pending: Index  # (m,) part indices whose frame is not yet in the world
     ancestor: Index  # (m,) the part each one's frame is relative to
+
+    @cached_property
+    def indices(self) -> tuple[Index | int, Index | int]:
+        """(pending, ancestor), as plain indices where the round has one part (a
+        chain's levels): a 4 x 4 product then, 2 us against 6 for one gathered (the
+        same arithmetic, to the bit)."""
+        if len(self.pending) == 1:
+            return int(self.pending[0]), int(self.ancestor[0])
+        return self.pending, self.ancestor
 
 
 @dataclass(frozen=True)

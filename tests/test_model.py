@@ -163,6 +163,8 @@ def test_weighted_height_gradient_matches_finite_differences(program: str) -> No
     ("path", "bindings", "rounds"),
     [
         (REPO / "programs" / "reading_nook.fhl", {}, POINTER_JUMPING_DEPTH),
+        # a chain: one part a level, composed by plain 4 x 4 products (`Jump.indices`)
+        (REPO / "programs" / "clip_light_m.fhl", {}, POINTER_JUMPING_DEPTH),
         # 40 S-hooks deep: pointer jumping, ceil(log2(40)) + 1 = 7 rounds, not 40
         (REPO / "bench" / "programs" / "s_hook_chain.fhl", {"n": "40"}, 7),
     ],
