@@ -678,7 +678,7 @@ def _contact_round_note(
     leans = sorted(_listed([names[i] for i in sorted(both)]) for both in new_leaning)
     inside: dict[str, list[str]] = {}
     for k in sorted(missed):
-        if frozenset((int(pairs.parts[k]), int(pairs.obstacles[k]))) in new_leaning:
+        if pairs.bodies(k) in new_leaning:
             continue  # said as leaning: their springs come on with the check's points there
         inside.setdefault(names[int(pairs.obstacles[k])], []).append(names[int(pairs.parts[k])])
     why = [f"{both} leaning on each other" for both in leans] + [
@@ -727,8 +727,7 @@ def _missed(model: Model, x: Array, pairs: Pairs, leaning: frozenset[frozenset[i
     return {
         k: inside
         for k, inside in checked.deep.items()
-        if model.parts[int(pairs.obstacles[k])].environment
-        or frozenset((int(pairs.parts[k]), int(pairs.obstacles[k]))) in leaning
+        if model.parts[int(pairs.obstacles[k])].environment or pairs.bodies(k) in leaning
     }
 
 
@@ -740,11 +739,7 @@ def _overlaps(model: Model, x: Array, pairs: Pairs, masses: Array) -> list[tuple
     springs made its settle crawl: docs/physics.md; `_crossings`)."""
     fine = check(model, x, pairs).overlaps(pairs, OVERLAP_KEPT_MM)
     in_world = [overlap for overlap in fine if model.parts[overlap[1]].environment]
-    through = [
-        overlap
-        for overlap in fine
-        if not model.parts[overlap[1]].environment and overlap[2] > CROSSING_WARNED_MM
-    ]
+    through = _between_parts(model, fine, deeper=True)
     found = {frozenset(overlap[:2]) for overlap in through}
     coarse = [
         overlap for overlap in _in_each_other(model, x, pairs, masses) if frozenset(overlap[:2]) not in found
@@ -757,10 +752,18 @@ def _crossings(model: Model, x: Array, pairs: Pairs) -> list[tuple[int, int, flo
     by more than OVERLAP_KEPT_MM and at most CROSSING_WARNED_MM, deepest first
     (W508), where `_overlaps` found nothing: the settle's points passed either
     side of a wire."""
+    return _between_parts(model, check(model, x, pairs).overlaps(pairs, OVERLAP_KEPT_MM), deeper=False)
+
+
+def _between_parts(
+    model: Model, overlaps: list[tuple[int, int, float]], deeper: bool
+) -> list[tuple[int, int, float]]:
+    """Of `overlaps` (part, obstacle, depth), those between two movable parts
+    deeper than CROSSING_WARNED_MM (through each other: E508), or not (W508)."""
     return [
         overlap
-        for overlap in check(model, x, pairs).overlaps(pairs, OVERLAP_KEPT_MM)
-        if not model.parts[overlap[1]].environment and overlap[2] <= CROSSING_WARNED_MM
+        for overlap in overlaps
+        if not model.parts[overlap[1]].environment and (overlap[2] > CROSSING_WARNED_MM) == deeper
     ]
 
 

@@ -121,6 +121,10 @@ class Pairs:
             pairs[k] = replace(pair, points=np.vstack([sparse, pair.check[added]]), added=added)
         return replace(self, pairs=tuple(pairs))
 
+    def bodies(self, k: int) -> frozenset[int]:
+        """The two parts of pair k, either way round."""
+        return frozenset((int(self.parts[k]), int(self.obstacles[k])))
+
     def size(self) -> int:
         """How many points all the pairs' settles look up."""
         return sum(len(pair.points) for pair in self.pairs)
@@ -128,7 +132,7 @@ class Pairs:
     def against(self, obstacles: set[int], between: frozenset[frozenset[int]] = frozenset()) -> Pairs:
         """The pairs whose obstacle is one of these parts, and those of two parts
         that `between` names together (either way round)."""
-        named = [frozenset((pair.part, pair.obstacle)) in between for pair in self.pairs]
+        named = [self.bodies(k) in between for k in range(len(self))]
         keep = np.flatnonzero(np.isin(self.obstacles, list(obstacles)) | np.array(named, dtype=bool))
         return Pairs(
             tuple(self.pairs[k] for k in keep),

@@ -41,29 +41,29 @@ def unexplained(model: Model, goal: target_mod.TargetGoal, x: Array) -> Diagnost
     """W505 for step 1's best `x`, which is out of reach, without the fit that
     tells what limits it (`diagnose`): for a family's members, whose notes
     are kept as codes only."""
+    errors = target_mod.errors(goal, target_mod.achieved(goal, model.part_frames(x)))
     return warning(
         "W505",
-        f"the target is out of reach: {_at_best(model, goal, x)}",
+        f"the target is out of reach: {_at_best(*errors)}",
         model.program.targets[0].span,
         "`fabhal solve` of this program says what limits it",
     )
 
 
-def _at_best(model: Model, goal: target_mod.TargetGoal, x: Array) -> str:
-    position, rotation = target_mod.errors(goal, target_mod.achieved(goal, model.part_frames(x)))
+def _at_best(position: float, rotation: float) -> str:
     return f"at best the target is {position:.0f} mm and {rotation:.0f} degrees from it"
 
 
 def diagnose(problem: Problem, goal: target_mod.TargetGoal, x: Array) -> Diagnostic:
     """W505 for step 1's best `x`, which is out of reach."""
     model = problem.model
-    position = target_mod.errors(goal, target_mod.achieved(goal, model.part_frames(x)))[0]
+    position, rotation = target_mod.errors(goal, target_mod.achieved(goal, model.part_frames(x)))
     free_turn = replace(goal, rotation_weight=0.0)
     loose = problem.full(fit_target(problem, free_turn, [x[problem.free]], evaluations=REACH_EVALUATIONS).v)
     frames = model.part_frames(loose)
     loose_position = target_mod.errors(goal, target_mod.achieved(goal, frames))[0]
     target = model.program.targets[0]
-    at_best = _at_best(model, goal, x)
+    at_best = _at_best(position, rotation)
     if min(loose_position, position) <= REACH_MM:  # turned freely it gets there: the rotation limits
         return warning(
             "W505",

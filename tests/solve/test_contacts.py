@@ -17,7 +17,7 @@ from scipy.spatial import cKDTree
 from fabhal import api
 from fabhal.meshes import contact_grid, contact_points, mass_properties, primitive_mesh
 from fabhal.solve import Solution
-from fabhal.solve.contacts import Contact, _distances, contact_pairs
+from fabhal.solve.contacts import Contact, Pairs, _distances, contact_pairs
 from fabhal.solve.forces import weight_newtons
 from tests.conftest import REPO
 
@@ -406,7 +406,8 @@ def test_a_repeated_round_names_three_reasons_and_counts_the_rest() -> None:
     from fabhal.solve import ROUND_REASONS_TOLD, _contact_round_note
 
     model = SimpleNamespace(parts=[SimpleNamespace(name=f"p{i}") for i in range(8)])
-    pairs = SimpleNamespace(parts=np.array([0, 1, 2, 3, 4, 1]), obstacles=np.array([7, 7, 6, 6, 5, 0]))
+    balls = np.zeros((6, 4))  # not looked at: only which parts each pair joins
+    pairs = Pairs((), np.array([0, 1, 2, 3, 4, 1]), np.array([7, 7, 6, 6, 5, 0]), balls, balls)
     missed = {k: np.zeros((1, 3)) for k in range(6)}
     note = _contact_round_note(model, frozenset({frozenset((0, 1))}), missed, pairs, 2)  # type: ignore[arg-type]
     assert ROUND_REASONS_TOLD == 3
