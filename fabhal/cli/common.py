@@ -8,6 +8,7 @@ import math
 import os
 import sys
 from collections.abc import Sequence
+from pathlib import Path
 from typing import Any, NoReturn
 
 from fabhal.diagnostics import Diagnostic, Severity, render_all
@@ -160,6 +161,19 @@ def print_diagnostics(diagnostics: Sequence[Diagnostic], sources: dict[str, Sour
 
             text = colour_source_lines(text)
         print(text, file=sys.stderr)
+
+
+def prepare_outputs(files: Sequence[Path | None], directories: Sequence[Path | None] = ()) -> int | None:
+    """Make the folders the outputs go to before the work starts (a search of minutes
+    must not end in "No such file or directory"); EXIT_USAGE, said, if one cannot be."""
+    wanted = [f.parent for f in files if f is not None] + [d for d in directories if d is not None]
+    for folder in wanted:
+        try:
+            folder.mkdir(parents=True, exist_ok=True)
+        except OSError as exc:
+            print(f"fabhal: cannot make the folder {folder}: {exc.strerror}", file=sys.stderr)
+            return EXIT_USAGE
+    return None
 
 
 def terminal() -> Any:

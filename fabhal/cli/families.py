@@ -16,6 +16,7 @@ from fabhal.cli.common import (
     add_parallel_options,
     add_solver_options,
     positive,
+    prepare_outputs,
     print_diagnostics,
     terminal,
 )
@@ -85,6 +86,9 @@ def run_search(args: argparse.Namespace) -> int:
     if isinstance(options, int):
         return options
     log = args.log or Path(f"{args.file.stem}.search.jsonl")
+    unwritable = prepare_outputs([log, args.csv, args.plot], [args.emit, args.render])
+    if unwritable is not None:
+        return unwritable
     if not args.resume and log.is_file() and log.stat().st_size > 0:
         print(f"fabhal: starting {log} afresh (--resume would keep the members it has)", file=sys.stderr)
     try:
@@ -280,6 +284,9 @@ def run_design(args: argparse.Namespace) -> int:
     if plan.diagnostics:
         print_diagnostics(plan.diagnostics, dict(plan.sources))
         return EXIT_DIAGNOSTICS
+    unwritable = prepare_outputs([], [args.emit, args.render])
+    if unwritable is not None:
+        return unwritable
     try:
         outcome = _design_with_progress(plan, options, args)
     except ExecutorError as exc:

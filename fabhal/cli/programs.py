@@ -12,6 +12,7 @@ from fabhal.cli.common import (
     EXIT_DIAGNOSTICS,
     EXIT_OK,
     EXIT_USAGE,
+    prepare_outputs,
     print_diagnostics,
     terminal,
     warning_count,
@@ -50,7 +51,7 @@ def run_solve(args: argparse.Namespace) -> int:
     from fabhal.report import solution as report
     from fabhal.resources import display_name
 
-    result = _solved(args, args.render)
+    result = _solved(args, args.render, args.output)
     if isinstance(result, int):
         return result
     name = display_name(args.file.resolve())
@@ -73,13 +74,16 @@ def run_solve(args: argparse.Namespace) -> int:
     return _finish(result, args.render, args, data)
 
 
-def _solved(args: argparse.Namespace, render_to: Path | None) -> Any:
-    """Refuse an unknown drawing format before any work, then solve: the
-    result, or an exit code when the file cannot be read."""
+def _solved(args: argparse.Namespace, render_to: Path | None, json_to: Path | None = None) -> Any:
+    """Refuse an unknown drawing format and make the outputs' folders before any
+    work, then solve: the result, or an exit code when the file cannot be read."""
     from fabhal.load import InputError
 
     if _unknown_format(render_to):
         return EXIT_USAGE
+    unwritable = prepare_outputs([render_to, json_to])
+    if unwritable is not None:
+        return unwritable
     try:
         return _solve_with_status(args)
     except InputError as exc:

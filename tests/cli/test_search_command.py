@@ -57,6 +57,24 @@ def test_json_and_csv_hold_every_member(tmp_path: Path) -> None:
     assert {float(r["position_mm"]) for r in rows} == set(errors.values())  # repr round trip: exact
 
 
+def test_outputs_go_to_new_folders_and_an_impossible_one_stops_before_solving(tmp_path: Path) -> None:
+    """A CSV asked for in a folder that does not exist yet is written there (it
+    used to end a whole search with "No such file or directory"); a place that
+    cannot be a folder (under a plain file) is refused before any member is
+    solved: the log stays unwritten."""
+    table = tmp_path / "out" / "deeper" / "members.csv"
+    run = search(tmp_path, "-D", "radius=2", "-D", "hook=DoubleHook", "-D", "n=1", "--csv", str(table))
+    assert run.returncode == 0, run.stderr
+    assert [r["n"] for r in csv.DictReader(table.open())] == ["1"]
+    blocker = tmp_path / "a_file"
+    blocker.write_text("")
+    (tmp_path / "log.jsonl").unlink()
+    run = search(tmp_path, "-D", "radius=2", "--plot", str(blocker / "errors.png"))
+    assert run.returncode == 2
+    assert f"cannot make the folder {blocker}" in run.stderr
+    assert not (tmp_path / "log.jsonl").exists()
+
+
 def test_a_family_the_check_rejects_entirely_exits_one(tmp_path: Path) -> None:
     run = search(tmp_path, "-D", "radius=40")
     assert run.returncode == 1

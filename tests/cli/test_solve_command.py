@@ -25,7 +25,7 @@ KEYS = {
 
 
 def test_json_result_of_a_gallery_program(tmp_path: Path) -> None:
-    out = tmp_path / "result.json"
+    out = tmp_path / "results" / "result.json"  # a folder not made yet: -o makes it
     run = fabhal("solve", "--json", "-o", str(out), "programs/mug_hanger.fhl")
     assert run.returncode == 0, run.stderr
     data = json.loads(run.stdout)
