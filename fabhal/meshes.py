@@ -303,6 +303,15 @@ def contact_grid(spec: PartSpec, building: Callable[[], None] | None = None) -> 
     return _cached_array(spec, "grid", _build_grid, building)  # type: ignore[return-value]
 
 
+def hull_grid(spec: PartSpec, building: Callable[[], None] | None = None) -> DistanceGrid:
+    """The signed distance grid of the part's convex hull: its volume with every
+    cavity and opening filled (a mug's inside, a ring's hole). Where two parts
+    pass through each other, their thin walls cross and the true grids know
+    only the wall's millimetres; the hulls' depth says which way is out.
+    Cached like `contact_grid`."""
+    return _cached_array(spec, "hull-grid", _build_hull_grid, building)  # type: ignore[return-value]
+
+
 def contact_points(spec: PartSpec, check: bool = False) -> Array:
     """(N, 3) points on the movable part's surface, in its frame (seeded: the
     same every run): about CONTACT_POINT_SPACING_MM apart for the settle's
@@ -380,9 +389,16 @@ def _solid_shape(primitive: Primitive) -> trimesh.Trimesh:
 
 
 def _build_grid(spec: PartSpec) -> DistanceGrid:
+    return _mesh_grid(part_mesh(spec, _solid_shape))
+
+
+def _build_hull_grid(spec: PartSpec) -> DistanceGrid:
+    return _mesh_grid(part_mesh(spec, _solid_shape).convex_hull)
+
+
+def _mesh_grid(mesh: trimesh.Trimesh) -> DistanceGrid:
     import trimesh
 
-    mesh = part_mesh(spec, _solid_shape)
     low = np.asarray(mesh.bounds[0]) - CONTACT_MARGIN_MM
     high = np.asarray(mesh.bounds[1]) + CONTACT_MARGIN_MM
     sample_spacing = grid_spacing(low, high) / 2

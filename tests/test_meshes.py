@@ -14,6 +14,8 @@ from fabhal.meshes import (
     MEASURES_FILE,
     _measures_table,
     _shipped_measures,
+    contact_grid,
+    hull_grid,
     mass_properties,
     measure_directory,
     part_mesh,
@@ -139,3 +141,20 @@ def test_a_mesh_that_changed_is_measured_again(tmp_path: Path, monkeypatch: pyte
     _measures_table.cache_clear()
     volume, centroid, _ = _shipped_measures(cube)  # type: ignore[misc]
     assert volume == pytest.approx(1000.0) and centroid == pytest.approx((5.0, 5.0, 5.0))
+
+
+def test_a_hull_grid_fills_what_the_surface_leaves_open() -> None:
+    """A mug (a 45 mm cup to z = 100 with a 2.2 mm wall, its handle out to
+    x = 85): at the middle of its inside, (0, 0, 60), the surface's grid reads
+    outside (open air: positive) and the hull's 40 mm inside (to the hull's
+    top at z = 100; its side is 45 mm away); between the handle and the body,
+    (65, 0, 50), outside and inside again (the hull spans the handle's loop,
+    about 12 mm from its side there); half-way through the wall, (-43.9, 0, 50), both read
+    -1.1 (half of 2.2 mm); beside the mug both outside. Tolerance: a cell of
+    the hull's grid (2.6 mm), interpolated."""
+    spec = part("Mug")
+    points = np.array([[0.0, 0.0, 60.0], [65.0, 0.0, 50.0], [-43.9, 0.0, 50.0], [-60.0, 0.0, 50.0]])
+    surface, hull = contact_grid(spec).sample(points)[0], hull_grid(spec).sample(points)[0]
+    assert surface[0] > 0 and surface[1] > 0 and surface[3] > 0
+    assert hull[0] == pytest.approx(-40.0, abs=2.6) and hull[1] < -5.0 and hull[3] > 0
+    assert surface[2] == pytest.approx(-1.1, abs=0.5) and hull[2] == pytest.approx(-1.1, abs=0.5)

@@ -31,6 +31,7 @@ from fabhal.solve.contacts import (
     contact_loads,
     contact_pairs,
     contacts_at,
+    crossings,
     with_contacts,
 )
 from fabhal.solve.energy import Energy
@@ -370,7 +371,16 @@ def _solve_once(model: Model, options: SolveOptions, loop_start: Array | None) -
         settled = (
             Settled(x, np.inf, (), ())
             if step1.out_of_time()
-            else _settle(step1, x, masses, centres, goal, pairs, tell=_told(options, "step 2"))
+            else _settle(
+                step1,
+                x,
+                masses,
+                centres,
+                goal,
+                pairs.dense(fit.untangled),
+                leaning=fit.untangled,
+                tell=_told(options, "step 2"),
+            )
         )
         if fit.runner_up is not None and not step1.out_of_time():
             options.report("step 2: settling from another start")
@@ -424,17 +434,22 @@ def _solve_once(model: Model, options: SolveOptions, loop_start: Array | None) -
                 "and report the program",
             )
         )
+    through = crossings(model, x, settled.pairs or pairs)
     overlaps = _overlaps(model, x, settled.pairs or pairs, masses)
-    diagnostics.extend(_overlap_diagnostic(model, *overlap) for overlap in overlaps[:1])
-    if not overlaps:
-        crossings = _crossings(model, x, settled.pairs or pairs)
-        diagnostics.extend(_crossing_diagnostic(model, *crossing) for crossing in crossings[:1])
+    if through and (not overlaps or overlaps[0][2] <= CROSSING_WARNED_MM):
+        # thin walls through each other: how far they cross says it, their depth would not
+        diagnostics.append(_through_diagnostic(model, *through[0]))
+    elif overlaps:
+        diagnostics.append(_overlap_diagnostic(model, *overlaps[0]))
+    else:
+        warned = _crossings(model, x, settled.pairs or pairs)
+        diagnostics.extend(_crossing_diagnostic(model, *crossing) for crossing in warned[:1])
     if any(not isinstance(fall, Lean | Slip) for fall in settled.falls):
         status = "falls_apart"
     elif settled.falls:
         status = "not_at_rest"  # held by a lean's stop, or feet that slide: not a state of rest
     else:
-        held = _at_rest(settled) and gap <= LOOP_KEPT_MM and not overlaps
+        held = _at_rest(settled) and gap <= LOOP_KEPT_MM and not overlaps and not through
         status = "solved" if held else "not_at_rest"
     return Solution(
         status,
@@ -506,7 +521,9 @@ def _aimed(
             tell=_told(options, "step 3"),
         )
         ranks = [_rank(goal, model.part_frames(s.x), s) for s in (aimed, best)]
-        inside = bool(_overlaps(model, aimed.x, aimed.pairs or pairs, masses))
+        inside = bool(_overlaps(model, aimed.x, aimed.pairs or pairs, masses)) or bool(
+            crossings(model, aimed.x, aimed.pairs or pairs)
+        )
         if ranks[0] >= ranks[1] or inside:
             break
         best = aimed
@@ -641,8 +658,11 @@ def _settle(
     movable parts that `leaning` pairs; then settled again from the same start
     (up to CONTACT_ROUNDS in all) with more contact where the result shows it
     is needed. Where two other movable parts are more than OVERLAP_KEPT_MM
-    inside each other, their springs are switched on too (the one then leans
-    on the other, which carries it). Where the check's finer points
+    inside each other, or their walls cross (`crossings`: thin walls pass
+    between the settle's points, and only the wall's millimetres show as
+    depth), their springs are switched on too (the one then leans on the
+    other, which carries it); crossing walls with every one of the check's
+    points (`Pairs.dense`). Where the check's finer points
     (fabhal/solve/contacts.py `check`) find a part inside what its springs act
     against, between its settle's points (an edge, a wire), the check's points
     there join them (`Pairs.refined`). Not parts already inside each other at
@@ -653,13 +673,14 @@ def _settle(
     evaluations instead of 300). The result carries the refined pairs; `tell`
     hears why a round is repeated (a settle of the caddy takes seconds)."""
     model = step1.model
-    placed_inside = _parts_inside(model, x, pairs, masses)
+    placed_inside = _parts_inside(model, x, pairs, masses) | _passing_through(model, x, pairs)
     for repeat in range(2, CONTACT_ROUNDS + 2):
         springs = _springs(model, pairs, leaning)
         settled = _settle_with(step1, x, masses, centres, goal, springs, thorough, leaning)
-        inside = _parts_inside(model, settled.x, pairs, masses) - placed_inside
+        through = _passing_through(model, settled.x, pairs) - placed_inside
+        inside = (_parts_inside(model, settled.x, pairs, masses) - placed_inside) | through
         missed = _missed(model, settled.x, pairs, leaning | inside)
-        refined = pairs.refined(missed)
+        refined = pairs.refined(missed).dense(through)
         if (inside <= leaning and refined.size() == pairs.size()) or step1.out_of_time():
             break
         if tell is not None and repeat <= CONTACT_ROUNDS:  # another round follows
@@ -707,6 +728,11 @@ def _parts_inside(model: Model, x: Array, pairs: Pairs, masses: Array) -> frozen
     """The movable parts whose settle's points are more than OVERLAP_KEPT_MM
     inside each other at x, in pairs."""
     return frozenset(frozenset((part, other)) for part, other, _ in _in_each_other(model, x, pairs, masses))
+
+
+def _passing_through(model: Model, x: Array, pairs: Pairs) -> frozenset[frozenset[int]]:
+    """The movable parts whose walls cross at x (`crossings`), in pairs."""
+    return frozenset(frozenset(crossing[:2]) for crossing in crossings(model, x, pairs))
 
 
 def _in_each_other(model: Model, x: Array, pairs: Pairs, masses: Array) -> list[tuple[int, int, float]]:
@@ -1296,6 +1322,18 @@ def _overlap_diagnostic(model: Model, part_index: int, other_index: int, depth: 
         model.program.targets[0].span,
         "the connections hold them where they would pass through each other: give them room (another "
         "place on what holds them, a longer part), or try another --seed",
+    )
+
+
+def _through_diagnostic(model: Model, part_index: int, other_index: int, span: float) -> Diagnostic:
+    part, other = (model.parts[i] for i in (part_index, other_index))
+    return error(
+        "E508",
+        f"`{part.name}` passes through `{other.name}` where the solver stopped (their walls cross over "
+        f"{span:.0f} mm): the parts cannot be where shown",
+        model.program.targets[0].span,
+        "the solver could not take them apart: give them room (hang them further apart, another place "
+        "on what holds them), or try another --seed",
     )
 
 

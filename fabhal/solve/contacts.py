@@ -36,7 +36,7 @@ from numpy.typing import NDArray
 from fabhal.kinematics.contact import DistanceGrid, penalty
 from fabhal.kinematics.frames import Array, angular_velocities
 from fabhal.library import PartSpec
-from fabhal.meshes import contact_grid, contact_points, near_primitive, obstacle_bounds
+from fabhal.meshes import contact_grid, contact_points, hull_grid, near_primitive, obstacle_bounds
 from fabhal.model import Forward, Joint, Model
 from fabhal.primitives import Primitive
 from fabhal.solve.energy import Energy
@@ -61,6 +61,13 @@ REFINE_RADIUS_MM = 15.0
 # contact (`contacts_at`): more than the settle's points' spacing (8 mm), less than a hack's
 # separate contacts lie apart (the caddy's two handles: 450 mm)
 REGION_MM = 20.0
+# where the check's points of one movable part lie inside another (deeper than
+# REFINE_DEPTH_MM) spread over more than this (mm), one's wall passes through the
+# other: more than a contact's patch (a part resting on another sinks into it over a
+# few millimetres; the reading nook's wire rings cross its links over at most 17 mm),
+# as two mugs whose rims cut through each other (165 mm) do, though only their 2.2 mm
+# walls' depth shows
+CROSSING_SPAN_MM = 2 * REGION_MM
 
 
 @dataclass(frozen=True)
@@ -75,11 +82,12 @@ class Pair:
     box: Array  # (2, 3) mm, the obstacle's mesh's bounds in its frame
     building: Callable[[], None] | None = None  # told before the obstacle's grid is first built
     added: Index = field(default_factory=lambda: np.zeros(0, dtype=int))  # the check's points in `points`
+    hull: bool = False  # against the obstacle's convex hull (`Pairs.hulls`), not its surface
 
     @cached_property
     def grid(self) -> DistanceGrid:
         """In the obstacle's frame (built once per machine: fabhal/meshes.py)."""
-        return contact_grid(self.shape, self.building)
+        return (hull_grid if self.hull else contact_grid)(self.shape, self.building)
 
 
 @dataclass(frozen=True)
@@ -120,6 +128,40 @@ class Pairs:
             sparse = pair.points[: len(pair.points) - len(pair.added)]
             pairs[k] = replace(pair, points=np.vstack([sparse, pair.check[added]]), added=added)
         return replace(self, pairs=tuple(pairs))
+
+    def dense(self, between: frozenset[frozenset[int]]) -> Pairs:
+        """The pairs with, for two movable parts that `between` names together,
+        every one of the check's points added to the settle's: walls that once
+        passed through each other (two mugs' 2.2 mm walls) pass between the
+        settle's points, about 8 mm apart, not between the check's 3 mm."""
+        pairs = list(self.pairs)
+        for k in range(len(self)):
+            if self.bodies(k) in between:
+                pair = pairs[k]
+                sparse = pair.points[: len(pair.points) - len(pair.added)]
+                every = np.arange(len(pair.check))
+                pairs[k] = replace(pair, points=np.vstack([sparse, pair.check]), added=every)
+        return replace(self, pairs=tuple(pairs))
+
+    def hulls(self, between: frozenset[frozenset[int]]) -> Pairs:
+        """The pairs of two movable parts that `between` names together, each
+        part's settle's points against the other's convex hull: depths that say
+        which way is out where walls cross (`crossings`), for step 1 to take
+        such parts apart."""
+        keep = [k for k in range(len(self)) if self.bodies(k) in between]
+        hulls = []
+        for k in keep:
+            pair = self.pairs[k]
+            sparse = pair.points[: len(pair.points) - len(pair.added)]
+            hulls.append(replace(pair, points=sparse, added=np.zeros(0, dtype=int), hull=True))
+        rows = np.array(keep, dtype=int)
+        return Pairs(
+            tuple(hulls),
+            self.parts[rows],
+            self.obstacles[rows],
+            self.part_balls[rows],
+            self.obstacle_balls[rows],
+        )
 
     def bodies(self, k: int) -> frozenset[int]:
         """The two parts of pair k, either way round."""
@@ -470,6 +512,19 @@ def _look_finely(fwd: Forward, pairs: Pairs) -> Checked:
             if depth[k] > REFINE_DEPTH_MM:
                 deep[k] = pairs.pairs[k].check[inside > REFINE_DEPTH_MM]
     return Checked(depth, deep)
+
+
+def crossings(model: Model, x: Array, pairs: Pairs) -> list[tuple[int, int, float]]:
+    """(part, other movable part, mm) where the part's wall passes through the
+    other's at x: the check's points of the part found inside the other spread
+    over that many millimetres, more than CROSSING_SPAN_MM; widest first."""
+    checked = check(model, x, pairs)
+    found = []
+    for k, inside in checked.deep.items():
+        span = float(np.linalg.norm(inside.max(axis=0) - inside.min(axis=0)))
+        if span > CROSSING_SPAN_MM and not model.parts[int(pairs.obstacles[k])].environment:
+            found.append((int(pairs.parts[k]), int(pairs.obstacles[k]), span))
+    return sorted(found, key=lambda crossing: -crossing[2])
 
 
 def contacts_at(model: Model, x: Array, pairs: Pairs, weight: float) -> tuple[Contact, ...]:

@@ -36,7 +36,7 @@ from fabhal.optimize import (
     tangent_curvature,
 )
 from fabhal.solve import target as target_mod
-from fabhal.solve.contacts import Pairs, penetration
+from fabhal.solve.contacts import Pairs, crossings, penetration
 from fabhal.solve.energy import Energy
 from fabhal.solve.forces import Slide, slide_dofs, weight_newtons
 from fabhal.solve.spacing import Spacing, spacing_jacobian, spacing_values
@@ -231,6 +231,9 @@ class Fit:
     # the most promising other start's probe when no start fitted (GOOD_FIT): where
     # starts end in different valleys, the hack may also hang from there
     runner_up: Array | None = None
+    # the movable parts, in twos, that the fit found passing through each other and
+    # took apart (`fit_target`): their springs act from the settle's start
+    untangled: frozenset[frozenset[int]] = frozenset()
 
 
 # in step 1's refit, a millimetre inside an obstacle costs like this many of target error
@@ -256,7 +259,10 @@ def fit_target(
     (`pairs`: the environment or another part), it is fitted once more with
     each millimetre a point is inside costing like PENETRATION_WEIGHT
     millimetres of target error: a builder gives up some accuracy before
-    pushing one object through another."""
+    pushing one object through another. Two movable parts whose walls cross
+    (`crossings`: two mugs' rims through each other) are kept apart by their
+    convex hulls in that fit (`Pairs.hulls`): inside a thin wall the way out is
+    either face, inside the hull it is the way apart."""
     model = problem.model
 
     def residual_and_jacobian(v: Array) -> tuple[Array, Array]:
@@ -264,17 +270,15 @@ def fit_target(
         r = target_mod.residual(goal, target_mod.achieved(goal, fwd.frames))
         return r, target_mod.residual_jacobian(goal, model, fwd)[:, problem.free]
 
-    def kept_out(v: Array) -> tuple[Array, Array]:
-        assert pairs is not None  # fitted with contacts only where there are pairs
-        r, jacobian = residual_and_jacobian(v)
-        depth, depth_jacobian = penetration(model, problem.full(v), pairs)
-        return (
-            np.concatenate([r, PENETRATION_WEIGHT * depth]),
-            np.vstack([jacobian, PENETRATION_WEIGHT * depth_jacobian[:, problem.free]]),
-        )
+    def kept_out(v: Array, kept_apart: tuple[Pairs, ...]) -> tuple[Array, Array]:
+        rows = [residual_and_jacobian(v)]
+        for apart in kept_apart:
+            depth, depth_jacobian = penetration(model, problem.full(v), apart)
+            rows.append((PENETRATION_WEIGHT * depth, PENETRATION_WEIGHT * depth_jacobian[:, problem.free]))
+        return np.concatenate([r for r, _ in rows]), np.vstack([jacobian for _, jacobian in rows])
 
-    def fit(start: Array, evaluations: int, with_contacts: bool = False) -> tuple[Array, float]:
-        residuals = kept_out if with_contacts else residual_and_jacobian
+    def fit(start: Array, evaluations: int, kept_apart: tuple[Pairs, ...] = ()) -> tuple[Array, float]:
+        residuals = partial(kept_out, kept_apart=kept_apart) if kept_apart else residual_and_jacobian
         v = problem.minimize(
             least_squares_objective(residuals),
             start,
@@ -292,10 +296,16 @@ def fit_target(
         loops are closed and spacings kept (`fit`'s cost is finite)."""
         if not pairs or result.late or problem.out_of_time():
             return result
-        if not penetration(model, problem.full(result.v), pairs)[0].any():
+        x = problem.full(result.v)
+        tangled = frozenset(frozenset(crossing[:2]) for crossing in crossings(model, x, pairs))
+        if not tangled and not penetration(model, x, pairs)[0].any():
             return result
-        v, cost = fit(result.v, evaluations, with_contacts=True)
-        return replace(result, v=v) if np.isfinite(cost) else result  # not at the price of an open loop
+        kept_apart = (pairs, pairs.hulls(tangled)) if tangled else (pairs,)
+        v, cost = fit(result.v, evaluations, kept_apart)
+        if not np.isfinite(cost):
+            return result  # not at the price of an open loop
+        still = {frozenset(crossing[:2]) for crossing in crossings(model, problem.full(v), pairs)}
+        return replace(result, v=v, untangled=tangled - still)
 
     probes: list[tuple[float, Array]] = []
     remaining = iter(starts)
