@@ -673,11 +673,16 @@ def _settle(
     evaluations instead of 300). The result carries the refined pairs; `tell`
     hears why a round is repeated (a settle of the caddy takes seconds)."""
     model = step1.model
-    placed_inside = _parts_inside(model, x, pairs, masses) | _passing_through(model, x, pairs)
+    placed_inside = _parts_inside(model, x, pairs, masses)
+    placed_through: frozenset[frozenset[int]] | None = None  # looked for only if needed: 0.05 s
     for repeat in range(2, CONTACT_ROUNDS + 2):
         springs = _springs(model, pairs, leaning)
         settled = _settle_with(step1, x, masses, centres, goal, springs, thorough, leaning)
-        through = _passing_through(model, settled.x, pairs) - placed_inside
+        through = _passing_through(model, settled.x, pairs)
+        if through:
+            if placed_through is None:
+                placed_through = _passing_through(model, x, pairs)
+            through -= placed_inside | placed_through
         inside = (_parts_inside(model, settled.x, pairs, masses) - placed_inside) | through
         missed = _missed(model, settled.x, pairs, leaning | inside)
         refined = pairs.refined(missed).dense(through)
