@@ -154,30 +154,72 @@ def _panel(
         (left + (right - left) / 2 - 30, bottom + 30), axis or "member", fill=(60, 60, 60), font=font(13)
     )
     draw.text((origin[0] + 8, top - 22), "target error, mm", fill=(60, 60, 60), font=font(13))
+    drawn: list[tuple[float, float]] = []
     for index, (_, series) in enumerate(points.items()):
         pixels = [at(x, y) if y is not None else None for x, y in series]
         _series(draw, pixels, LINE_COLORS[index % len(LINE_COLORS)])
-    _legend(draw, [label for label in points if label], (right, top))
+        drawn.extend(pixel for pixel in pixels if pixel is not None)
+    title_end = left + draw.textlength(title, font=font(16))
+    _legend(draw, [label for label in points if label], (left, top, right, bottom), drawn, title_end)
     if ys:
         best = min((y, x) for series in points.values() for x, y in series if y is not None)
         cx, cy = at(best[1], best[0])
         draw.ellipse([cx - 7, cy - 7, cx + 7, cy + 7], outline=(0, 0, 0), width=2)
 
 
-def _legend(draw: Any, labels: list[str], corner: tuple[float, float]) -> None:
-    """Line colours and labels in a white box in the panel's top right corner, over the lines."""
+def _legend(
+    draw: Any,
+    labels: list[str],
+    box: tuple[float, float, float, float],
+    drawn: list[tuple[float, float]],
+    title_end: float,
+) -> None:
+    """Line colours and labels: in one row above the plot, right of the panel's
+    title, where they hide nothing; where the row does not fit there, in a white
+    box in the corner of the plot that hides the fewest of the points drawn (the
+    clip-light family's n = 1 line ran under a box fixed at the top right)."""
     if not labels:
         return
-    width = 36 + max(draw.textlength(label, font=font(13)) for label in labels)
-    left, top = corner[0] - width - 6, corner[1] + 6
-    draw.rectangle(
-        [left, top, corner[0] - 6, top + 8 + 18 * len(labels)], fill="white", outline=(200, 200, 200)
-    )
+    widths = [36 + draw.textlength(label, font=font(13)) for label in labels]
+    left, top, right, _ = box
+    if title_end + 20 + sum(widths) <= right:
+        x = right - sum(widths)
+        for index, (label, width) in enumerate(zip(labels, widths, strict=True)):
+            _legend_entry(draw, (x, top - 44), label, index)
+            x += width
+        return
+    size = (max(widths), 8 + 18 * len(labels))
+    left, top = _emptiest_corner(box, size, drawn)
+    draw.rectangle([left, top, left + size[0], top + size[1]], fill="white", outline=(200, 200, 200))
     for index, label in enumerate(labels):
-        y = top + 12 + 18 * index
-        color = LINE_COLORS[index % len(LINE_COLORS)]
-        draw.line([(left + 6, y), (left + 26, y)], fill=color, width=3)
-        draw.text((left + 30, y - 7), label, fill=(40, 40, 40), font=font(13))
+        _legend_entry(draw, (left, top + 18 * index), label, index)
+
+
+def _legend_entry(draw: Any, at: tuple[float, float], label: str, index: int) -> None:
+    """A line in the index-th colour and its label, from `at` (the entry's top left)."""
+    x, y = at[0], at[1] + 12
+    draw.line([(x + 6, y), (x + 26, y)], fill=LINE_COLORS[index % len(LINE_COLORS)], width=3)
+    draw.text((x + 30, y - 7), label, fill=(40, 40, 40), font=font(13))
+
+
+def _emptiest_corner(
+    box: tuple[float, float, float, float], size: tuple[float, float], drawn: list[tuple[float, float]]
+) -> tuple[float, float]:
+    """The top left of a `size` box in a corner of `box` (6 px in) that covers
+    the fewest `drawn` points, the top right first among equals."""
+    left, top, right, bottom = box
+    corners = [
+        (right - 6 - size[0], top + 6),
+        (left + 6, top + 6),
+        (right - 6 - size[0], bottom - 6 - size[1]),
+        (left + 6, bottom - 6 - size[1]),
+    ]
+
+    def covered(corner: tuple[float, float]) -> int:
+        x, y = corner
+        return sum(1 for px, py in drawn if x - 4 <= px <= x + size[0] + 4 and y - 4 <= py <= y + size[1] + 4)
+
+    return min(corners, key=covered)
 
 
 def _x_of(member: MemberResult, axis: str | None, index: int) -> float:
