@@ -151,8 +151,9 @@ def grid_spacing(low: Array, high: Array) -> float:
     return max(FINEST_CELL_MM, float(np.prod(high - low) / GRID_POINTS) ** (1 / 3))
 
 
-def penalty(distance: Array, stiffness: float) -> tuple[float, Array]:
-    """Energy stiffness / 2 x sum(depth^2) of the points inside (depth = -distance
-    where negative), and its derivative by each distance."""
+def penalty(distance: Array, stiffness: float | Array) -> tuple[float, Array]:
+    """Energy sum(stiffness / 2 x depth^2) over the points inside (depth =
+    -distance where negative; stiffness one for all, or one per point), and its
+    derivative by each distance."""
     depth = np.maximum(-distance, 0.0)
-    return 0.5 * stiffness * float(depth @ depth), -stiffness * depth
+    return 0.5 * float(stiffness * depth @ depth), -stiffness * depth
