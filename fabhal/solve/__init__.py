@@ -521,8 +521,9 @@ def _aimed(
             tell=_told(options, "step 3"),
         )
         ranks = [_rank(goal, model.part_frames(s.x), s) for s in (aimed, best)]
-        inside = bool(_overlaps(model, aimed.x, aimed.pairs or pairs, masses)) or bool(
-            crossings(model, aimed.x, aimed.pairs or pairs)
+        inside = bool(
+            _overlaps(model, aimed.x, aimed.pairs or pairs, masses)
+            or crossings(model, aimed.x, aimed.pairs or pairs)
         )
         if ranks[0] >= ranks[1] or inside:
             break

@@ -10,8 +10,11 @@ point). Against the environment the springs are part of the settle's energy:
 a part that leans on a wall comes to rest against it, and the wall carries
 what it takes. Between movable parts they serve step 1 (`penetration`), the
 final check (fabhal/solve/__init__.py, E508) and, where a settle left two parts
-inside each other, the settle again (`Pairs.against`); the push acts on both
-parts, equal and opposite. Contacts are frictionless (a part may slide along the
+inside each other or their walls crossing (`crossings`), the settle again
+(`Pairs.against`), softer than the world's (PARTS_GIVE_MM); the push acts on
+both parts, equal and opposite. Walls that cross are taken apart in step 1 by
+the parts' convex hulls (`Pairs.hulls`): inside a thin wall the way out is
+either face, inside the hull it is the way apart. Contacts are frictionless (a part may slide along the
 wall), which errs towards reporting that a hack moves. The contact that a
 connection itself makes is not a collision: a part's points around its own
 primitive of a connection to an environment (within the reach of the other
