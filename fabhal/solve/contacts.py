@@ -143,6 +143,8 @@ class Pairs:
         every one of the check's points added to the settle's: walls that once
         passed through each other (two mugs' 2.2 mm walls) pass between the
         settle's points, about 8 mm apart, not between the check's 3 mm."""
+        if not between:
+            return self  # and its look-ups kept
         pairs = list(self.pairs)
         for k in range(len(self)):
             if self.bodies(k) in between:
