@@ -116,6 +116,11 @@ class Model:
     def part_index(self, name: str) -> int:
         return next(i for i, p in enumerate(self.parts) if p.name == name)
 
+    def as_written(self) -> list[int]:
+        """The parts' indices in the order the program declares them (the
+        model's own order is the tree's: `build_model`), for what people read."""
+        return [self.part_index(part.name) for part in self.program.parts]
+
     # ---- kinematics (vectorised over all connections; see `layout`)
 
     def side_of(self, i: int) -> Side:
@@ -692,15 +697,31 @@ def _residual_of(errors: Array) -> Array:
 
 
 def build_model(program: FlatProgram) -> Model:
-    """Lay out the DoF vector and grow the spanning tree from the environments."""
-    index = {p.name: i for i, p in enumerate(program.parts)}
+    """Lay out the DoF vector and grow the spanning tree from the environments.
+    The parts are ordered as the tree reaches them, not as written: the
+    environments by name, then each part as the connections (in their
+    canonical order) hang it from what is already placed, then any part
+    nothing places, by name. Every sum over parts (the weights, the contacts)
+    is then added in the same order whatever the order of the declarations
+    (the diaper caddy, its parts declared in reverse, once came to rest 27 mm
+    elsewhere: its valley is flat enough for rounding to choose)."""
+    by_name = _assemble(program, tuple(sorted(program.parts, key=lambda part: part.name)))
+    environments = [i for i, part in enumerate(by_name.parts) if part.environment]
+    reached = [by_name.placed_sides(edge)[1].part for edge in by_name.tree]
+    order = [*environments, *reached, *by_name.unplaced]
+    return _assemble(program, tuple(by_name.parts[i] for i in order))
+
+
+def _assemble(program: FlatProgram, parts: tuple[PartInstance, ...]) -> Model:
+    """The model of `program` with its parts in this order."""
+    index = {p.name: i for i, p in enumerate(parts)}
     variables: list[DofVariable] = []
     joints: list[Joint] = []
     for j, connection in enumerate(sorted(program.connections, key=_connection_key)):
         sides = []
         for label, end in (("a", connection.a), ("b", connection.b)):
             part = index[end.part]
-            primitive = program.parts[part].spec.primitive(end.primitive)
+            primitive = parts[part].spec.primitive(end.primitive)
             assert primitive is not None, end  # elaboration resolved every endpoint
             start = len(variables)
             for dof in primitive.dofs:
@@ -714,18 +735,18 @@ def build_model(program: FlatProgram) -> Model:
         _keep_on_floor(joint, variables)
         _keep_threaded(joint, variables)
     written = _written_settings(joints, variables)
-    tree, closures, unplaced = _spanning_tree(program, joints)
+    tree, closures, unplaced = _spanning_tree(parts, joints)
     pinned = written | frozenset(
         i
         for joint in joints
-        for i in (*_resting_surface(joint), *_fixed_rod_line(joint, program.parts), *_threaded_centre(joint))
+        for i in (*_resting_surface(joint), *_fixed_rod_line(joint, parts), *_threaded_centre(joint))
     )
     standing = tuple(
         s for joint in joints if not joint.connection.fixed and (s := _standing(joint)) is not None
     )
     return Model(
         program,
-        program.parts,
+        parts,
         tuple(joints),
         tree,
         closures,
@@ -869,13 +890,13 @@ def _standing(joint: Joint) -> Standing | None:
 
 
 def _spanning_tree(
-    program: FlatProgram, joints: list[Joint]
+    parts: tuple[PartInstance, ...], joints: list[Joint]
 ) -> tuple[tuple[TreeEdge, ...], tuple[int, ...], tuple[int, ...]]:
     """Grow the tree over the connections in their order (`_connection_key`): a
     connection that reaches a new part is a tree edge, one between two placed
     parts closes a loop; a connection between two unplaced parts waits for a
     later pass."""
-    placed = {i for i, p in enumerate(program.parts) if p.environment}
+    placed = {i for i, p in enumerate(parts) if p.environment}
     tree: list[TreeEdge] = []
     decided: set[int] = set()
     closures: list[int] = []
@@ -895,5 +916,5 @@ def _spanning_tree(
                 continue
             decided.add(joint.index)
             progress = True
-    unplaced = tuple(i for i in range(len(program.parts)) if i not in placed)
+    unplaced = tuple(i for i in range(len(parts)) if i not in placed)
     return tuple(tree), tuple(closures), unplaced

@@ -83,7 +83,7 @@ def _solution(solution: Solution) -> dict[str, Any]:
             "matrix": [_numbers(row, 6) for row in solution.frames[i]],
             "mass_g": round(float(solution.masses[i]), 3),
         }
-        for i, part in enumerate(model.parts)
+        for i, part in ((i, model.parts[i]) for i in model.as_written())
     }
     connections = []
     resting = set(solution.at_bound)
@@ -216,7 +216,8 @@ def renderables(result: SolveOutcome, program: str) -> list[RenderableType]:
     table = Table(title="where each part ends up (world frame: mm, degrees)")
     for column in ("part", "type", "position", "rotation", "mass"):
         table.add_column(column, justify="right" if column == "mass" else "left")
-    for i, part in enumerate(solution.model.parts):
+    for i in solution.model.as_written():
+        part = solution.model.parts[i]
         frame = _frame(solution.frames[i])
         mass = "fixed" if part.environment else f"{solution.masses[i]:.1f} g"
         table.add_row(part.name, part.type_name, _triple(frame["pos"]), _triple(frame["rot"]), mass)
@@ -269,8 +270,8 @@ def hanging_lines(model: Model, forces: np.ndarray | None = None) -> list[tuple[
             lines.append((depth, line))
             visit(child, depth + 1)
 
-    for i, part in enumerate(model.parts):
-        if part.environment:
+    for i in model.as_written():
+        if model.parts[i].environment:
             visit(i, 0)
     for j in model.closures:
         connection = model.joints[j].connection

@@ -535,12 +535,16 @@ def _look_finely(fwd: Forward, pairs: Pairs) -> Checked:
 def crossings(model: Model, x: Array, pairs: Pairs) -> list[tuple[int, int, float]]:
     """(part, other movable part, mm) where the part's wall passes through the
     other's at x: the check's points of the part found inside the other spread
-    over that many millimetres, more than CROSSING_SPAN_MM; widest first."""
+    over that many millimetres in one touching region (`_regions`: two large
+    rings that touch at two places 400 mm apart touch twice, briefly), more
+    than CROSSING_SPAN_MM; widest first."""
     checked = check(model, x, pairs)
     found = []
     for k, inside in checked.deep.items():
-        span = float(np.linalg.norm(inside.max(axis=0) - inside.min(axis=0)))
-        if span > CROSSING_SPAN_MM and not model.parts[int(pairs.obstacles[k])].environment:
+        if model.parts[int(pairs.obstacles[k])].environment:
+            continue
+        span = max(float(np.linalg.norm(np.ptp(inside[region], axis=0))) for region in _regions(inside))
+        if span > CROSSING_SPAN_MM:
             found.append((int(pairs.parts[k]), int(pairs.obstacles[k]), span))
     return sorted(found, key=lambda crossing: -crossing[2])
 

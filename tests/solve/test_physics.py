@@ -18,6 +18,7 @@ from fabhal import api
 from fabhal.meshes import mass_properties
 from fabhal.solve import Solution
 from tests.conftest import REPO
+from tests.solve.test_contacts import TWO_MUGS
 
 
 def solve_text(tmp_path: Path, text: str, seed: int = 0) -> api.SolveResult:
@@ -280,28 +281,24 @@ target mug at (0, -40, 880)
 """
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="the order the parts are declared in orders the sums over parts (weights, contacts): "
-    "a settle that rests on the world can take another path (docs/physics.md, the same answer "
-    "whatever the order of lines)",
-)
-def test_the_order_of_the_declarations_does_not_change_the_answer(tmp_path: Path) -> None:
+@pytest.mark.parametrize("text", [MUG_BY_A_WALL, TWO_MUGS], ids=["mug_by_a_wall", "two_mugs"])
+def test_the_order_of_the_declarations_does_not_change_the_answer(tmp_path: Path, text: str) -> None:
     """A mug on an S-hook from a rod 30 mm in front of a wall, against which
-    it rests: the same program with its parts and environments declared in
-    reverse is the same mechanism, so the same pose to 1e-6 mm (rounding).
-    Today the mug ends 0.08 mm apart along the rod (the place aiming chooses
-    where friction holds the hook: a flat direction), and the diaper caddy,
-    declared in reverse, 27 mm apart: ordering the model's parts canonically
-    (by name, or as the tree reaches them) mends both, but the reading nook
-    then settles with its two chains' rings in each other and crawls to E508."""
-    lines = MUG_BY_A_WALL.splitlines()
+    it rests; two mugs side by side resting on each other: the same program
+    with its parts and environments declared in reverse is the same
+    mechanism, so the same pose to 1e-6 mm (rounding). The model orders its
+    parts as the tree reaches them: with the order written, every sum over
+    parts (weights, contacts) was added in the text's order, and the mug
+    ended 0.08 mm apart along its rod (where aiming places the hook: a flat
+    direction), the diaper caddy declared in reverse 27 mm apart."""
+    lines = text.splitlines()
     declarations = [line for line in lines if " = " in line]
     reverse = declarations[::-1] + [line for line in lines if " = " not in line]
-    frames = [
-        solve_text(tmp_path, "\n".join(order) + "\n").solution.target_frame()  # type: ignore[union-attr]
-        for order in (lines, reverse)
-    ]
+    frames = []
+    for order in (lines, reverse):
+        result = solve_text(tmp_path, "\n".join(order) + "\n")
+        assert result.status == "solved", result.diagnostics
+        frames.append(result.solution.target_frame())  # type: ignore[union-attr]
     assert np.abs(frames[1] - frames[0]).max() < 1e-6
 
 
