@@ -683,3 +683,31 @@ def test_three_mugs_on_one_rod_come_to_rest_against_each_other(tmp_path: Path) -
     }
     assert touching == {model.part_index("m1"), model.part_index("m3")}
     assert all(c.depth < 0.1 for c in solution.contacts)
+
+
+def test_a_crossing_is_measured_within_one_touching_region(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """`crossings` measures the spread of the points found inside within one
+    touching region (`_regions`: points in neighbouring 20 mm cubes): two
+    large rings touching at two spots 400 mm apart, each spot 6 mm across, are
+    no crossing (the reading nook's rings once read as a 400 mm one); a line
+    of points 3 mm apart over 60 mm (a rim through a wall) is, 60 mm long."""
+    import fabhal.solve.contacts as contacts_module
+    from fabhal.solve.contacts import Checked, crossings
+
+    program = tmp_path / "two_mugs.fhl"
+    program.write_text(TWO_MUGS)
+    model = api.check(program).model
+    pairs = contact_pairs(model)
+    (k,) = [
+        k for k in range(len(pairs)) if pairs.parts[k] == model.part_index("m1") and pairs.bodies(k) == {3, 4}
+    ]
+    spots = np.array([[0.0, 0, 0], [6.0, 0, 0], [400.0, 0, 0], [406.0, 0, 0]])
+    line = np.column_stack([np.arange(0.0, 61.0, 3.0), np.zeros(21), np.zeros(21)])
+    x = np.zeros(len(model.variables))
+    for deep, expected in ((spots, []), (line, [60.0])):
+        monkeypatch.setattr(
+            contacts_module, "check", lambda *_, deep=deep: Checked(np.zeros(len(pairs)), {k: deep})
+        )
+        assert [round(span, 6) for *_, span in crossings(model, x, pairs)] == expected
