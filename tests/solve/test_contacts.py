@@ -700,14 +700,12 @@ def test_a_crossing_is_measured_within_one_touching_region(
     program.write_text(TWO_MUGS)
     model = api.check(program).model
     pairs = contact_pairs(model)
-    (k,) = [
-        k for k in range(len(pairs)) if pairs.parts[k] == model.part_index("m1") and pairs.bodies(k) == {3, 4}
-    ]
+    m1, m2 = model.part_index("m1"), model.part_index("m2")
+    (k,) = [k for k in range(len(pairs)) if pairs.parts[k] == m1 and pairs.obstacles[k] == m2]
     spots = np.array([[0.0, 0, 0], [6.0, 0, 0], [400.0, 0, 0], [406.0, 0, 0]])
     line = np.column_stack([np.arange(0.0, 61.0, 3.0), np.zeros(21), np.zeros(21)])
     x = np.zeros(len(model.variables))
     for deep, expected in ((spots, []), (line, [60.0])):
-        monkeypatch.setattr(
-            contacts_module, "check", lambda *_, deep=deep: Checked(np.zeros(len(pairs)), {k: deep})
-        )
+        found = Checked(np.zeros(len(pairs)), {k: deep})
+        monkeypatch.setattr(contacts_module, "check", lambda *_, found=found: found)
         assert [round(span, 6) for *_, span in crossings(model, x, pairs)] == expected
