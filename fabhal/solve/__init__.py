@@ -50,6 +50,7 @@ from fabhal.solve.steps import (
     FRICTION_SMOOTHING_MM,
     Fit,
     Problem,
+    _feasible,
     closure_residual_mm,
     fit_target,
     mm_per_unit,
@@ -271,6 +272,28 @@ def _leaning_connections(model: Model, result: Solution, aligned: bool) -> list[
     return [model.joints[j].connection for j in joints if model.joints[j].connection.aligned == aligned]
 
 
+def _turnable(model: Model, result: Solution) -> list[Connection]:
+    """The connections the solver may turn over where the result leans on a stop:
+    those leaning whose alignment the program leaves open, then the other open
+    ones on the same primitive (two eye hooks on one door rod: turning the one
+    that does not lean may be what lets the other hang)."""
+    leaning = _leaning_connections(model, result, aligned=False)
+    held_on = {
+        (side.part, side.primitive.name)
+        for j in dict.fromkeys(fall.joint for fall in result.falls)
+        for side in (model.joints[j].a, model.joints[j].b)
+        if model.parts[side.part].environment
+    }
+    siblings = [
+        joint.connection
+        for joint in model.joints
+        if not joint.connection.aligned
+        and joint.connection not in leaning
+        and any((side.part, side.primitive.name) in held_on for side in (joint.a, joint.b))
+    ]
+    return leaning + siblings
+
+
 def _solved_turned(model: Model, options: SolveOptions, connection: Connection) -> Solution | None:
     """The design with `connection` turned over (`flip` toggled), if it solves; None otherwise."""
     if time.monotonic() > options.deadline:
@@ -290,7 +313,7 @@ def _aligned(model: Model, options: SolveOptions, result: Solution) -> Solution 
     alignment of such a connection open (neither `flip` nor `noflip`): the
     solver chooses it. The first of them that hangs at rest turned over gives
     the result, with N507 saying so; None if none does."""
-    for connection in _leaning_connections(model, result, aligned=False):
+    for connection in _turnable(model, result):
         turned = _solved_turned(model, options, connection)
         if turned is not None:
             return replace(turned, diagnostics=(_aligned_note(connection, turned), *turned.diagnostics))
@@ -348,6 +371,13 @@ def _solve_once(model: Model, options: SolveOptions, loop_start: Array | None) -
         options.report("step 1: bringing the target to its frame")
         fit = fit_target(step1, goal, starts, pairs)
     x = step1.full(fit.v)
+    crowded = None if fit.late or loop_start is None else _crowded(step1, fit.v, loop_start)
+    if crowded is not None:  # no start closes the loops with the parts kept apart
+        frames = model.part_frames(x)
+        return Solution(
+            "infeasible", model, x, frames, masses, goal, _energy(frames, masses, centres),
+            closure_residual_mm(model, x), None, (), (), (crowded,),
+        )  # fmt: skip
     # step 1 moves parts without their masses: only its frames can break
     _require_finite(
         model, x, np.zeros_like(masses), np.zeros_like(centres), "step 1 (bringing the target to its frame)"
@@ -466,6 +496,33 @@ def _solve_once(model: Model, options: SolveOptions, loop_start: Array | None) -
         tuple(diagnostics),
         settled.forces,
         settled.contacts,
+    )
+
+
+def _crowded(step1: Problem, v: Array, closed: Array) -> Diagnostic | None:
+    """E423 where no start of step 1 keeps the loops closed and the parts that
+    share a rod, tube or edge apart (its best `v` breaks one or the other),
+    and the check's closure (`closed`: it closes the loops without that rule)
+    has two such parts closer than their widths allow: the design as connected
+    cannot be built."""
+    model = step1.model
+    if not model.closures or not step1.spacing or _feasible(step1, v):
+        return None
+    rules = spacing_constraints(model, closed)  # in the closure's own order: distances >= 0
+    apart = spacing_values(rules, closed)
+    k = int(np.argmin(apart))
+    if apart[k] > -1e-6:
+        return None  # the loops close with the parts apart: not this rule's to say
+    rule = rules[k]
+    first, second = (model.joints[model.variables[i].joint] for i in (rule.first, rule.second))
+    shared = model.variables[rule.first].name.rsplit(".", 1)[0]
+    return error(
+        "E423",
+        f"the loops close only with `{first.connection.a}` and `{second.connection.a}` "
+        f"{rule.gap + apart[k]:.0f} mm apart along `{shared}`, closer than they fit ({rule.gap:.0f} mm)",
+        second.connection.span,
+        "two parts on one rod, tube or edge cannot share a place: connect one of them elsewhere, "
+        "or give the loop another part so it closes with them apart",
     )
 
 
@@ -1049,8 +1106,10 @@ def step_one(
     """Step 1's problem (the DoFs that are not pinned, parts sharing a primitive
     kept apart) and its starts over those DoFs: the spread-out defaults (with
     loops: closed), then seeded random points (with loops: those that close).
-    The starts are made as they are asked for: closing a random start's loops
-    costs as much as a short fit, and a fit that succeeds needs no more starts."""
+    The random starts are made as they are asked for: closing a random start's
+    loops costs as much as a short fit, and a fit that succeeds needs no more
+    starts; the first is always asked for, and decides the order of parts along
+    a shared rod where only the check's closure keeps them apart."""
     x0 = model.x_default()
     low, high = model.bounds()
     written = list(model.written)
@@ -1058,9 +1117,19 @@ def step_one(
     spacing = spacing_constraints(model, spread(spacing_constraints(model, x0), x0, low, high))
     x0 = spread(spacing, x0, low, high)
     free = np.array([i for i in range(len(model.variables)) if i not in model.pinned], dtype=int)
+    first = _first_start(model, x0, spacing, loop_start, seed, deadline) if model.closures else x0
+    if loop_start is not None and spacing and float(spacing_values(spacing, first).min()) <= -1e-6:
+        # no closure keeps the parts apart in the spread's order along their rod; the check's
+        # keeps them apart in an order of its own (a mug's handle on a rod and on the S-hook
+        # beside it there): that order it is
+        in_its_order = spacing_constraints(model, loop_start)
+        if float(spacing_values(in_its_order, loop_start).min()) > -1e-6:
+            spaced = sorted({i for c in spacing for i in (c.first, c.second)})
+            spacing, first = in_its_order, loop_start
+            x0[spaced] = loop_start[spaced]
 
     def starts() -> Iterator[Array]:
-        yield _first_start(model, x0, spacing, loop_start, seed, deadline) if model.closures else x0
+        yield first
         yield from _random_starts(model, x0, seed, deadline)
 
     return Problem(model, free, x0.copy(), spacing, deadline), _distinct(starts(), free)

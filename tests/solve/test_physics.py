@@ -513,3 +513,54 @@ def test_a_rigid_loop_a_millimetre_out_cannot_close(tmp_path: Path) -> None:
     assert result.status == "infeasible"
     (problem,) = [d for d in result.diagnostics if d.code == "E421"]
     assert "gap of 1.0 mm" in problem.help
+
+
+MUG_ON_ROD_AND_HOOK = """\
+environment rod = Rod(length: 500, radius: 2) at (0, 0, 200) rot (90, 0, 90)
+s1 = DoubleHook()
+mug = Mug()
+connect s1.hook2 -- rod
+connect mug.hook -- s1.hook1
+connect mug.hook -- rod
+target mug.hook at (0, 0, 135) rot (-70, 0, 0)
+"""
+
+
+def test_a_loop_keeps_the_order_its_closure_found_on_a_shared_rod(tmp_path: Path) -> None:
+    """A mug's handle hung on a rod and on the S-hook that hangs from the same
+    rod: a loop. The check closes it with the handle 18 mm along the rod from
+    the S-hook, on the side it reaches; the spread start puts them the other
+    way round, from which no start closed the loop, and the result was
+    `falls_apart` with a loop open by 29 mm ("a solver fault", E506). Now
+    solved: the loop closed (1e-6 mm), at rest, and the two contacts on the rod
+    at least their widths apart (the S-hook's 4 mm wire and the handle's, 8 mm
+    in all: the spacing rule, to 1e-6 mm)."""
+    result = solve_text(tmp_path, MUG_ON_ROD_AND_HOOK)
+    assert result.status == "solved", result.diagnostics
+    solution = result.solution
+    assert solution.residual < 1e-6 and solution.equilibrium < 1e-3
+    model = solution.model
+    on_rod = [k for k, j in enumerate(model.joints) if model.parts[j.b.part].name == "rod"]
+    points = model.connection_points(model.forward(solution.x))[on_rod]
+    assert abs(points[0][0] - points[1][0]) >= 8.0 - 1e-6
+
+
+def test_a_loop_that_puts_two_parts_in_one_place_is_e423(tmp_path: Path) -> None:
+    """Where the loops close only with two parts closer on a rod than their
+    widths (made here: the check's closure with the two rod contacts 2 mm
+    apart, the solver's best not keeping them apart), E423 says so at the
+    connection, with both distances: 2 mm, where they need 8 (the S-hook's
+    4 mm wire and the handle's 4 mm, half each side)."""
+    from fabhal.solve import _crowded, step_one
+
+    program = tmp_path / "hack.fhl"
+    program.write_text(MUG_ON_ROD_AND_HOOK)
+    model = api.check(program).model
+    step1, _ = step_one(model, 0, None, float("inf"))
+    closed = model.x_default()
+    rule = step1.spacing[0]
+    closed[rule.first], closed[rule.second] = 0.5, 0.5 + 2.0 / rule.length
+    crowded = _crowded(step1, closed[step1.free], closed)
+    assert crowded is not None and crowded.code == "E423"
+    assert "2 mm apart along `rod.rod`, closer than they fit (8 mm)" in crowded.message
+    assert crowded.span is not None and crowded.span.line in (4, 6)
