@@ -519,18 +519,23 @@ def test_touching_points_are_grouped_by_region() -> None:
     assert _regions(np.zeros((0, 3))) == []
 
 
-TWO_MUGS = """\
-environment rod = Rod(length: 120, radius: 3) at (0, 0, 300) rot (90, 0, 90)
-s1 = DoubleHook()
-s2 = DoubleHook()
-m1 = Mug()
-m2 = Mug()
-connect s1.hook2 -- rod
-connect s2.hook2 -- rod
-connect m1.hook -- s1.hook1
-connect m2.hook -- s2.hook1
-target m1.hook at (-30, 0, 240) rot (0, 0, 0)
-"""
+def mugs_on_a_rod(count: int, length: float, target: str) -> str:
+    """`count` mugs, each by its handle on its own S-hook, on one rod `length` mm long."""
+    numbers = range(1, count + 1)
+    return "\n".join(
+        [
+            f"environment rod = Rod(length: {length:g}, radius: 3) at (0, 0, 300) rot (90, 0, 90)",
+            *(f"s{i} = DoubleHook()" for i in numbers),
+            *(f"m{i} = Mug()" for i in numbers),
+            *(f"connect s{i}.hook2 -- rod" for i in numbers),
+            *(f"connect m{i}.hook -- s{i}.hook1" for i in numbers),
+            target,
+            "",
+        ]
+    )
+
+
+TWO_MUGS = mugs_on_a_rod(2, 120, "target m1.hook at (-30, 0, 240) rot (0, 0, 0)")
 
 
 def two_mugs(tmp_path: Path) -> api.SolveResult:
@@ -640,22 +645,7 @@ def test_parts_that_cannot_be_taken_apart_pass_through_each_other_e508(
     assert span > CROSSING_SPAN_MM
 
 
-THREE_MUGS = """\
-environment rod = Rod(length: 150, radius: 3) at (0, 0, 300) rot (90, 0, 90)
-s1 = DoubleHook()
-s2 = DoubleHook()
-s3 = DoubleHook()
-m1 = Mug()
-m2 = Mug()
-m3 = Mug()
-connect s1.hook2 -- rod
-connect s2.hook2 -- rod
-connect s3.hook2 -- rod
-connect m1.hook -- s1.hook1
-connect m2.hook -- s2.hook1
-connect m3.hook -- s3.hook1
-target m2.hook at (0, 0, 240) rot (0, 0, 0)
-"""
+THREE_MUGS = mugs_on_a_rod(3, 150, "target m2.hook at (0, 0, 240) rot (0, 0, 0)")
 
 
 def test_three_mugs_on_one_rod_come_to_rest_against_each_other(tmp_path: Path) -> None:
