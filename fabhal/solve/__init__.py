@@ -449,7 +449,7 @@ def _solve_once(model: Model, options: SolveOptions, loop_start: Array | None) -
     x = settled.x
     frames = model.part_frames(x)
     if options.gravity and not settled.falls and not settled.contacts:  # nothing leans on the world
-        aside = reach.hangs_aside(model, goal, x)
+        aside = reach.hangs_aside(model, goal, x) or reach.hangs_below(model, goal, x)
         if aside is not None:
             notes.append(aside)
     diagnostics = [*notes, *(_fall_diagnostic(model, f) for f in settled.falls)]

@@ -142,12 +142,10 @@ def hangs_aside(model: Model, goal: target_mod.TargetGoal, x: Array) -> Diagnost
     for a hack that hangs from one support (no loops, nothing standing, the
     support's connection not held rigid); the caller leaves out hacks that lean
     on the environment, which may hold them aside."""
-    found = _support_side(model, goal.part)
-    if model.closures or model.standing or found is None:
+    found = _hanging_from(model, goal)
+    if found is None:
         return None
     side, joint = found
-    if side.primitive.kind not in POINT_SUPPORTS + LINE_SUPPORTS or joint.held:
-        return None
     frames = model.part_frames(x)
     anchor = model.connector_frame(side, x, frames)[:3, 3]
     along = np.zeros(2)  # the support's horizontal direction; none for a point
@@ -178,4 +176,45 @@ def hangs_aside(model: Model, goal: target_mod.TargetGoal, x: Array) -> Diagnost
     )
 
 
-__all__ = ["REACH_DEG", "REACH_MM", "diagnose", "hangs_aside", "out_of_reach"]
+def hangs_below(model: Model, goal: target_mod.TargetGoal, x: Array) -> Diagnostic | None:
+    """W511 for a settled hack whose target hangs more than REACH_MM below its
+    request, the request lying under the one hook, ring or rod the hack hangs
+    from (as `hangs_aside` asks): what hangs free from one support hangs
+    straight down from it, so the parts between reach as far below it as
+    their lengths make, and step 1, which folds them up with gravity off,
+    cannot say so (W505 is for a request too far, not too near)."""
+    found = _hanging_from(model, goal)
+    if found is None:
+        return None
+    side, joint = found
+    frames = model.part_frames(x)
+    anchor = model.connector_frame(side, x, frames)[2, 3]
+    requested, reached = goal.requested[2, 3], target_mod.achieved(goal, frames)[2, 3]
+    drop = requested - reached
+    if drop <= REACH_MM or requested >= anchor:
+        return None
+    return warning(
+        "W511",
+        f"the target hangs {drop:.0f} mm below its request: what hangs from `{joint.endpoint(side)}` "
+        f"hangs straight down from it, and the target comes to rest {anchor - reached:.0f} mm below "
+        f"it where the request is {anchor - requested:.0f} mm below",
+        model.program.targets[0].span,
+        f"shorten what hangs between them by about {drop:.0f} mm (fewer or shorter parts), or ask for "
+        "the target lower",
+    )
+
+
+def _hanging_from(model: Model, goal: target_mod.TargetGoal) -> tuple[Side, Joint] | None:
+    """The environment's side and the connection a hack hangs from when it hangs
+    free from one support (no loops, nothing standing, a hook, ring or rod whose
+    connection is not held rigid); None otherwise."""
+    found = _support_side(model, goal.part)
+    if model.closures or model.standing or found is None:
+        return None
+    side, joint = found
+    if side.primitive.kind not in POINT_SUPPORTS + LINE_SUPPORTS or joint.held:
+        return None
+    return side, joint
+
+
+__all__ = ["REACH_DEG", "REACH_MM", "diagnose", "hangs_aside", "hangs_below", "out_of_reach"]

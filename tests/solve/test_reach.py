@@ -145,3 +145,55 @@ def test_a_request_beside_a_rod_is_said_so_and_one_along_it_is_not(tmp_path: Pat
     x, y, z = map(float, re.search(r"such as \((-?\d+), (-?\d+), (-?\d+)\)", aside.help).groups())
     assert x == 100.0 and abs(y) <= 40.0 and z == 1400.0
     assert aside_warnings(tmp_path, HUNG_FROM_A_ROD.format(y=0)) == []
+
+
+FEEDER_ON_TWO_HOOKS = """\
+environment ceiling = CeilingHook() at (0, 0, 2000)
+a = DoubleHook()
+b = DoubleHook()
+feeder = BirdFeeder()
+connect a.hook2 -- ceiling.hook
+connect b.hook2 -- a.hook1
+connect feeder.ring -- b.hook1
+target feeder at (0, 0, {z})
+"""
+
+
+def test_a_chain_too_long_says_how_far_below_it_hangs(tmp_path: Path) -> None:
+    """A bird feeder (its ring 116 mm above its frame) hung from a ceiling hook
+    by two S-hooks and asked for 1850, 66 mm under the hook's contact point:
+    with gravity off step 1 folds the S-hooks up and reaches it (no W505), but
+    hanging, the two hooks and the ring hang straight down: the feeder's frame
+    comes to rest 219 mm under the contact (2 x 42.4 mm between the hooks' arc
+    centres, the ring's 116 mm, the arcs' and the ring's radii), 153 mm below
+    the request. W511 says so with both depths, and its numbers are the
+    solution's: the drop equals the position error (the feeder hangs straight
+    under the request, to 1 mm), the depths the frames' heights (to 1 mm,
+    rounding). Asked where it hangs (1697), or above the hook, none."""
+    program = tmp_path / "feeder.fhl"
+    program.write_text(FEEDER_ON_TWO_HOOKS.format(z=1850))
+    result = api.solve(program)
+    assert result.status == "solved"
+    assert not [d for d in result.diagnostics if d.code == "W505"]
+    (below,) = [d for d in result.diagnostics if d.code == "W511"]
+    drop, rest, asked = map(
+        float,
+        re.search(
+            r"hangs (\d+) mm below.* rest (\d+) mm below it where the request is (\d+)", below.message
+        ).groups(),
+    )
+    solution = result.solution
+    position_error, _ = solution.target_errors()
+    assert abs(drop - position_error) <= 1.0
+    model = solution.model
+    (joint,) = [
+        j for j in model.joints if model.parts[j.b.part].environment or model.parts[j.a.part].environment
+    ]
+    side = joint.b if model.parts[joint.b.part].environment else joint.a
+    anchor = model.connector_frame(side, solution.x, solution.frames)[2, 3]
+    assert abs(asked - (anchor - 1850)) <= 1.0
+    assert abs(rest - (anchor - solution.frames[model.part_index("feeder")][2, 3])) <= 1.0
+    assert below.span is not None and below.span.line == 8
+    for z in (1697, 2100):
+        program.write_text(FEEDER_ON_TWO_HOOKS.format(z=z))
+        assert not [d for d in api.solve(program).diagnostics if d.code == "W511"]
