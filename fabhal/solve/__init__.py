@@ -32,6 +32,7 @@ from fabhal.solve.contacts import (
     contact_pairs,
     contacts_at,
     crossings,
+    passing_through,
     with_contacts,
 )
 from fabhal.solve.energy import Energy
@@ -736,10 +737,10 @@ def _settle(
     for repeat in range(2, CONTACT_ROUNDS + 2):
         springs = _springs(model, pairs, leaning)
         settled = _settle_with(step1, x, masses, centres, goal, springs, thorough, leaning)
-        through = _passing_through(model, settled.x, pairs)
+        through = passing_through(model, settled.x, pairs)
         if through:
             if placed_through is None:
-                placed_through = _passing_through(model, x, pairs)
+                placed_through = passing_through(model, x, pairs)
             through -= placed_inside | placed_through
         inside = (_parts_inside(model, settled.x, pairs, masses) - placed_inside) | through
         missed = _missed(model, settled.x, pairs, leaning | inside)
@@ -791,11 +792,6 @@ def _parts_inside(model: Model, x: Array, pairs: Pairs, masses: Array) -> frozen
     """The movable parts whose settle's points are more than OVERLAP_KEPT_MM
     inside each other at x, in pairs."""
     return frozenset(frozenset((part, other)) for part, other, _ in _in_each_other(model, x, pairs, masses))
-
-
-def _passing_through(model: Model, x: Array, pairs: Pairs) -> frozenset[frozenset[int]]:
-    """The movable parts whose walls cross at x (`crossings`), in pairs."""
-    return frozenset(frozenset(crossing[:2]) for crossing in crossings(model, x, pairs))
 
 
 def _in_each_other(model: Model, x: Array, pairs: Pairs, masses: Array) -> list[tuple[int, int, float]]:

@@ -549,6 +549,11 @@ def crossings(model: Model, x: Array, pairs: Pairs) -> list[tuple[int, int, floa
     return sorted(found, key=lambda crossing: -crossing[2])
 
 
+def passing_through(model: Model, x: Array, pairs: Pairs) -> frozenset[frozenset[int]]:
+    """The movable parts whose walls cross at x (`crossings`), in twos."""
+    return frozenset(frozenset(crossing[:2]) for crossing in crossings(model, x, pairs))
+
+
 def contacts_at(model: Model, x: Array, pairs: Pairs, weight: float) -> tuple[Contact, ...]:
     """The contacts at x, with the force the other body exerts (N) and where:
     one per region where two bodies touch (`_regions`: a caddy's two handles

@@ -36,7 +36,7 @@ from fabhal.optimize import (
     tangent_curvature,
 )
 from fabhal.solve import target as target_mod
-from fabhal.solve.contacts import Pairs, crossings, penetration
+from fabhal.solve.contacts import Pairs, passing_through, penetration
 from fabhal.solve.energy import Energy
 from fabhal.solve.forces import Slide, slide_dofs, weight_newtons
 from fabhal.solve.spacing import Spacing, spacing_jacobian, spacing_values
@@ -260,7 +260,7 @@ def fit_target(
     each millimetre a point is inside costing like PENETRATION_WEIGHT
     millimetres of target error: a builder gives up some accuracy before
     pushing one object through another. Two movable parts whose walls cross
-    (`crossings`: two mugs' rims through each other) are kept apart by their
+    (`passing_through`: two mugs' rims through each other) are kept apart by their
     convex hulls in that fit (`Pairs.hulls`): inside a thin wall the way out is
     either face, inside the hull it is the way apart."""
     model = problem.model
@@ -297,15 +297,14 @@ def fit_target(
         if not pairs or result.late or problem.out_of_time():
             return result
         x = problem.full(result.v)
-        tangled = frozenset(frozenset(crossing[:2]) for crossing in crossings(model, x, pairs))
+        tangled = passing_through(model, x, pairs)
         if not tangled and not penetration(model, x, pairs)[0].any():
             return result
         kept_apart = (pairs, pairs.hulls(tangled)) if tangled else (pairs,)
         v, cost = fit(result.v, evaluations, kept_apart)
         if not np.isfinite(cost):
             return result  # not at the price of an open loop
-        still = {frozenset(crossing[:2]) for crossing in crossings(model, problem.full(v), pairs)}
-        return replace(result, v=v, untangled=tangled - still)
+        return replace(result, v=v, untangled=tangled - passing_through(model, problem.full(v), pairs))
 
     probes: list[tuple[float, Array]] = []
     remaining = iter(starts)

@@ -394,7 +394,7 @@ def test_a_settle_repeated_for_contact_says_why(tmp_path: Path, monkeypatch: pyt
     said: list[str] = []
     assert pole_by_a_post(tmp_path, 2000, 40, said.append).status == "solved"
     assert not [line for line in said if "settling again" in line]
-    monkeypatch.setattr(steps_module, "crossings", lambda *_: [])
+    monkeypatch.setattr(steps_module, "passing_through", lambda *_: frozenset())
     said.clear()
     assert pole_by_a_post(tmp_path, 2000, 40, said.append).status == "solved"
     repeats = [line for line in said if "settling again" in line]
@@ -636,7 +636,7 @@ def test_parts_that_cannot_be_taken_apart_pass_through_each_other_e508(
     import fabhal.solve.steps as steps_module
     from fabhal.solve.contacts import CROSSING_SPAN_MM
 
-    monkeypatch.setattr(steps_module, "crossings", lambda *_: [])
+    monkeypatch.setattr(steps_module, "passing_through", lambda *_: frozenset())
     result = two_mugs(tmp_path)
     assert result.status == "not_at_rest"
     (through,) = [d for d in result.diagnostics if d.code == "E508"]
