@@ -98,6 +98,12 @@ class Pair:
         """In the obstacle's frame (built once per machine: fabhal/meshes.py)."""
         return (hull_grid if self.hull else contact_grid)(self.shape, self.building)
 
+    def with_check(self, added: Index) -> Pair:
+        """The pair with the check's points `added` (indices into `check`) joining
+        the settle's own, in place of those added before."""
+        own = self.points[: len(self.points) - len(self.added)]
+        return replace(self, points=np.vstack([own, self.check[added]]), added=added)
+
 
 @dataclass(frozen=True)
 class Pairs:
@@ -133,9 +139,9 @@ class Pairs:
         for k, inside in deep.items():
             pair = pairs[k]
             near = cKDTree(pair.check).query_ball_point(inside, REFINE_RADIUS_MM)
-            added = np.union1d(pair.added, np.concatenate([np.asarray(n, dtype=int) for n in near]))
-            sparse = pair.points[: len(pair.points) - len(pair.added)]
-            pairs[k] = replace(pair, points=np.vstack([sparse, pair.check[added]]), added=added)
+            pairs[k] = pair.with_check(
+                np.union1d(pair.added, np.concatenate([np.asarray(n, dtype=int) for n in near]))
+            )
         return replace(self, pairs=tuple(pairs))
 
     def dense(self, between: frozenset[frozenset[int]]) -> Pairs:
@@ -148,10 +154,7 @@ class Pairs:
         pairs = list(self.pairs)
         for k in range(len(self)):
             if self.bodies(k) in between:
-                pair = pairs[k]
-                sparse = pair.points[: len(pair.points) - len(pair.added)]
-                every = np.arange(len(pair.check))
-                pairs[k] = replace(pair, points=np.vstack([sparse, pair.check]), added=every)
+                pairs[k] = pairs[k].with_check(np.arange(len(pairs[k].check)))
         return replace(self, pairs=tuple(pairs))
 
     def hulls(self, between: frozenset[frozenset[int]]) -> Pairs:
@@ -160,11 +163,7 @@ class Pairs:
         which way is out where walls cross (`crossings`), for step 1 to take
         such parts apart."""
         keep = [k for k in range(len(self)) if self.bodies(k) in between]
-        hulls = []
-        for k in keep:
-            pair = self.pairs[k]
-            sparse = pair.points[: len(pair.points) - len(pair.added)]
-            hulls.append(replace(pair, points=sparse, added=np.zeros(0, dtype=int), hull=True))
+        hulls = [replace(self.pairs[k].with_check(np.zeros(0, dtype=int)), hull=True) for k in keep]
         rows = np.array(keep, dtype=int)
         return Pairs(
             tuple(hulls),
@@ -428,12 +427,12 @@ def _stiffness(weight: float) -> float:
     return weight / CONTACT_GIVE_MM
 
 
-def _stiffness_at(model: Model, pairs: Pairs, touching: Touching, weight: float) -> Array:
-    """Each touching point's spring stiffness (joules per mm^2): against the
+def _pair_stiffness(model: Model, pairs: Pairs, weight: float) -> Array:
+    """(K,) each pair's spring stiffness (joules per mm^2): against the
     environment `_stiffness`; between two movable parts a softer one
-    (PARTS_GIVE_MM)."""
+    (PARTS_GIVE_MM). Made once per energy: it depends on the pairs alone."""
     world = np.array([model.parts[int(o)].environment for o in pairs.obstacles], dtype=bool)
-    return np.where(world[touching.pair], _stiffness(weight), weight / PARTS_GIVE_MM)
+    return np.where(world, _stiffness(weight), weight / PARTS_GIVE_MM)
 
 
 def with_contacts(model: Model, energy: Energy, pairs: Pairs, weight: float) -> Energy:
@@ -442,6 +441,7 @@ def with_contacts(model: Model, energy: Energy, pairs: Pairs, weight: float) -> 
     (None: measured) where one is (fabhal/solve/energy.py)."""
     if not pairs:
         return energy
+    stiffness = _pair_stiffness(model, pairs, weight)
 
     def total(x: Array) -> tuple[float, Array]:
         value, gradient = energy(x)
@@ -449,7 +449,7 @@ def with_contacts(model: Model, energy: Energy, pairs: Pairs, weight: float) -> 
         touching = _inside(model, fwd, pairs)
         if not len(touching.depth):
             return value, gradient
-        spring, slope = penalty(-touching.depth, _stiffness_at(model, pairs, touching, weight))
+        spring, slope = penalty(-touching.depth, stiffness[touching.pair])
         # d(spring) / d(point) as a load on the part (and the reaction on a movable
         # obstacle): their generalised forces are the gradient
         forces, moments = touching.resultants(slope[:, None] * touching.normal, len(pairs))
@@ -563,7 +563,7 @@ def contacts_at(model: Model, x: Array, pairs: Pairs, weight: float) -> tuple[Co
     the other), and the other pair's pushes, on the other part, count as
     their reactions."""
     touching = _inside(model, model.forward(x, with_twists=True), pairs)
-    slope = penalty(-touching.depth, _stiffness_at(model, pairs, touching, weight))[1]
+    slope = penalty(-touching.depth, _pair_stiffness(model, pairs, weight)[touching.pair])[1]
     push = -1000.0 * slope[:, None] * touching.normal  # J/mm -> N, on each point's part
     parts, obstacles = pairs.parts[touching.pair], pairs.obstacles[touching.pair]
     bodies = np.minimum(parts, obstacles) * len(model.parts) + np.maximum(parts, obstacles)
