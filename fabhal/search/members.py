@@ -94,33 +94,60 @@ def rank_key(member: MemberResult) -> tuple[int, float, float, int]:
 def solve_row(job: Job) -> list[MemberResult]:
     """`--smooth`: the members of one row of the family (every param the same but
     the last), each solved on its own, then again from its neighbour's solved
-    configuration, in a sweep up the row and one down, where the neighbour hangs
-    nearer: with the neighbour's settings aimed again, and kept as they are; each
-    member keeps the best result (rank_key). A neighbour's settings (where a clip
-    grips, where a hook sits on a rod) are the builder's to reuse, so a member
-    never lands far worse than the one beside it: the family's errors stop jumping."""
+    configuration where the neighbour hangs nearer: with the neighbour's
+    settings aimed again, and kept as they are; each member keeps the best
+    result (rank_key). Sweeps go up the row and down, and again (SMOOTH_SWEEPS
+    at most) while a sweep changed a result: one found sweeping down is offered
+    to the members above it only by the next sweep up. A neighbour's settings
+    (where a clip grips, where a hook sits on a rod) are the builder's to reuse,
+    so a member never lands far worse than the one beside it: the family's
+    errors stop jumping. Each member tries each result of a neighbour once."""
     found = [solve_member(job, bindings) for bindings in job.members]
-    for order, step in ((range(1, len(found)), -1), (range(len(found) - 2, -1, -1), 1)):
+    versions = [0] * len(found)  # how often each member's result changed
+    tried: set[tuple[int, int, int]] = set()  # (member, neighbour, the neighbour's version)
+    for sweep in range(SMOOTH_SWEEPS):
+        step = -1 if sweep % 2 == 0 else 1  # up the row: from the one below
+        order = range(1, len(found)) if step == -1 else range(len(found) - 2, -1, -1)
+        changed = False
         for k in order:
-            neighbour, start = found[k + step]
-            # only a neighbour that hangs nearer has settings worth trying here
-            if (
-                start is None
-                or found[k][0].status == REJECTED
-                or rank_key(neighbour) >= rank_key(found[k][0])
-            ):
+            attempt = (k, k + step, versions[k + step])
+            if attempt in tried:
                 continue
-            started = time.perf_counter()
-            # the neighbour's settings aimed again for this member, and kept exactly as they are
-            # (settled only): aiming weighs rotation with position, the search ranks position first
-            tries = [solve_member(replace(job, two_step=kept), job.members[k], start, neighbour.key)
-                     for kept in (job.two_step, True)]  # fmt: skip
-            spent = found[k][0].time_s + time.perf_counter() - started
-            best = min([found[k], *tries], key=lambda tried: rank_key(tried[0]))
-            # kept as they are, the settings to build are the neighbour's
-            aimed = best[0].aimed or (neighbour.aimed if best[0].reached_from else None)
-            found[k] = (replace(best[0], time_s=spent, aimed=aimed), best[1])
+            tried.add(attempt)
+            continued = _continued_from(job, k, found[k], found[k + step])
+            if continued is not None:
+                found[k], nearer = continued
+                if nearer:
+                    versions[k], changed = versions[k] + 1, True
+        if sweep > 0 and not changed:
+            break
     return [member for member, _ in found]
+
+
+# sweeps of `solve_row` at most: up, down, and up and down again where the second
+# found nearer results (a row's results stop changing within these on the clip lights)
+SMOOTH_SWEEPS = 4
+Solved = tuple[MemberResult, "Array | None"]
+
+
+def _continued_from(job: Job, k: int, own: Solved, neighbour: Solved) -> tuple[Solved, bool] | None:
+    """Member k solved again from its neighbour's configuration, if the neighbour
+    hangs nearer: the best of its result and the continued ones, with the time
+    spent on all of them, and whether a continued one was best (None: not tried)."""
+    (result, _), (beside, start) = own, neighbour
+    # only a neighbour that hangs nearer has settings worth trying here
+    if start is None or result.status == REJECTED or rank_key(beside) >= rank_key(result):
+        return None
+    started = time.perf_counter()
+    # the neighbour's settings aimed again for this member, and kept exactly as they are
+    # (settled only): aiming weighs rotation with position, the search ranks position first
+    tries = [solve_member(replace(job, two_step=kept), job.members[k], start, beside.key)
+             for kept in (job.two_step, True)]  # fmt: skip
+    spent = result.time_s + time.perf_counter() - started
+    best = min([own, *tries], key=lambda tried: rank_key(tried[0]))
+    # kept as they are, the settings to build are the neighbour's
+    aimed = best[0].aimed or (beside.aimed if best[0].reached_from else None)
+    return (replace(best[0], time_s=spent, aimed=aimed), best[1]), best is not own
 
 
 def solve_member(
