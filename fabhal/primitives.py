@@ -17,6 +17,7 @@ frame formula. Numbers and formulas follow shared/spec/FABHAL_REFERENCE.md
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from enum import Enum
@@ -241,8 +242,16 @@ class Dof:
     high_open: bool = False
     critical: bool = False  # a position that uses up the primitive's length/area
     # a lean (a flex angle: a hook tilting on its rod): its range is where the
-    # model stops it, not an end a real contact has, and it carries no load
+    # model stops it, not an end a real contact has, and it carries no load...
     lean: bool = False
+    # ...unless its range is where the wire jams on what it goes round (`yaw_jam_deg`)
+    jammed: bool = False
+
+    @property
+    def ends_hold(self) -> bool:
+        """Whether the ends of its range are real stops, which carry what presses
+        on them: all but a lean's whose jam is not known."""
+        return not self.lean or self.jammed
 
     @property
     def tag(self) -> Tag:
@@ -467,6 +476,59 @@ def make_primitive(
 
 
 # ---------------------------------------------------------------- connecting two kinds
+
+LOOPS = ("hook", "hole")
+
+
+def opening(p: Primitive) -> float:
+    """Inside diameter of a hook or hole: what can pass through it."""
+    return 2.0 * (p.params["arc_radius"] - p.params["thickness"])
+
+
+def across(p: Primitive) -> float:
+    """How thick it is where another part goes around it (mm across)."""
+    if p.kind in LOOPS:
+        return 2.0 * p.params["thickness"]
+    if p.kind == "rod":
+        return 2.0 * p.params["radius"]
+    if p.kind == "tube":
+        return 2.0 * (p.params["inner_radius"] + p.params["thickness"])
+    if p.kind == "edge":
+        return p.params["height"]
+    if p.kind == "clip":
+        return p.params["width"]
+    if p.kind == "hemisphere":
+        return 2.0 * p.params["radius"]
+    return 0.0
+
+
+ROUND = ("rod", "tube", "hook", "hole")  # what a loop goes round: round in section
+
+
+def yaw_jam_deg(loop: Primitive, inside: Primitive) -> float | None:
+    """How far a hook or ring turns from square about the line of its contact
+    (its flex angle `phi`, a yaw) on the round wire, rod or tube it goes round,
+    before its wire jams on it; None where `inside` is not round or `loop` is
+    no loop.
+
+    Turned by b, the loop's plane cuts the rod (radius r) in an ellipse with
+    half-axes r across the loop's wire and a = r / cos b along it, resting at
+    the bottom of the loop's inner circle (radius p, the wire's inner side).
+    Centred on the circle's centre, the ellipse's point at angle t from the
+    contact lies at squared distance p^2 + (1 - cos t) x ((1 + cos t)(a^2 -
+    r^2) - 2 (p - r) r), within the circle for every t while a^2 <= p r (the
+    bracket is largest as t -> 0: the ellipse first pokes out beside the
+    contact, where its curvature radius a^2 / r passes the circle's). So the
+    wire jams at cos^2 b = r / p: a hook fitting snugly (r = p) cannot turn; a
+    link of 14 mm inner radius on a 3 mm wire turns 62.4 degrees.
+    """
+    if loop.kind not in LOOPS or inside.kind not in ROUND or loop.flags.get("centerline"):
+        return None
+    rho, r = opening(loop) / 2.0, across(inside) / 2.0
+    if rho <= r:
+        return 0.0
+    return math.degrees(math.acos(math.sqrt(r / rho)))
+
 
 # Which kinds may connect: the paper's Table 2 (13 unordered pairs).
 CONNECTABLE: frozenset[frozenset[str]] = frozenset(

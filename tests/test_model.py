@@ -191,3 +191,31 @@ def test_batched_frames_match_one_connection_at_a_time(
         child_local = child.primitive.connector_frames(x[list(child.dof_indices)])
         expected = parent_connector @ offset @ np.linalg.inv(child_local)
         np.testing.assert_allclose(frames[child.part], expected, atol=1e-8 if bindings else 1e-9)
+
+
+def test_a_flex_angle_turns_only_until_its_wire_jams() -> None:
+    """The model narrows a flex angle (`phi` of a flexible hook or ring, a
+    turn about the line of its contact) to where its wire jams, a real stop,
+    where that comes within the model's [45, 135]: a clip light's turnbuckle
+    hook (arc radius 5.75, wire 1.5: 4.25 mm inside) on RingXS's wire (3.3
+    mm) jams at acos(sqrt(3.3 / 4.25)) = 28.22 degrees; the reading nook's
+    links (14 mm inside) on its ObstacleRingL wires (3 mm) would jam at
+    62.42, beyond the range: [45, 135] stays, and its ends stay the model's
+    (E509: nothing real holds them). The S-hooks taped to the shelf edge fit
+    it snugly (9.6 mm inside, 10 mm rod: N416): they cannot turn (pinned)."""
+    import math
+
+    light = build_model(api.check(REPO / "programs" / "clip_light_xs.fhl").model.program)  # type: ignore[union-attr]
+    names = {v.name: (i, v.dof) for i, v in enumerate(light.variables)}
+    _, turnbuckle = names["chain.tb[1].hook2.phi"]
+    jam = math.degrees(math.acos(math.sqrt(3.3 / 4.25)))
+    assert jam == pytest.approx(28.22, abs=0.01)
+    assert (turnbuckle.low, turnbuckle.high) == pytest.approx((90 - jam, 90 + jam), abs=1e-9)
+    assert turnbuckle.jammed and turnbuckle.ends_hold
+    nook = api.check(REPO / "programs" / "reading_nook.fhl").model
+    assert nook is not None
+    names = {v.name: (i, v.dof) for i, v in enumerate(nook.variables)}
+    _, link = names["link1.hook1.phi"]
+    assert (link.low, link.high) == (45.0, 135.0) and not link.ends_hold
+    snug, _ = names["s1.hook2.phi"]
+    assert snug in nook.pinned

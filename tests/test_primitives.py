@@ -10,7 +10,7 @@ import pytest
 
 from fabhal import api
 from fabhal.library import Library, PartSpec
-from fabhal.primitives import KINDS, Tag, check_params, make_primitive
+from fabhal.primitives import KINDS, Primitive, Tag, check_params, make_primitive
 from fabhal.source import Span
 from tests.conftest import spec_json
 
@@ -152,3 +152,51 @@ def test_every_kind_has_a_frame_for_its_default_dofs() -> None:
         frame = primitive.connector_frames(np.array([d.default for d in primitive.dofs]))
         rotation = frame[:3, :3]
         np.testing.assert_allclose(rotation @ rotation.T, np.eye(3), atol=1e-12)  # a rigid frame
+
+
+def _ring(arc_radius: float, thickness: float) -> Primitive:
+    return make_primitive("ring", "hole", {"arc_radius": arc_radius, "thickness": thickness}, {})
+
+
+def test_a_loop_turns_on_a_round_wire_until_its_wire_jams() -> None:
+    """A RingLink's hook (arc radius 18, wire 4: 14 mm inside) on an
+    ObstacleRingL's 3 mm wire jams at cos^2 b = 3 / 14: b = 62.42 degrees.
+    Checked without the formula: the loop's inner circle (radius p = 14,
+    centre (0, 0)) against the rod's section in the turned loop's plane, an
+    ellipse of half-axes r / cos b along the wire and r across it, resting
+    at the circle's bottom (centre (0, r - p)). 20,000 points on the ellipse:
+    just inside the jam (b - 0.05 degrees) none lies outside the circle, just
+    past it (b + 0.05) some do, by more than 1e-6 mm (the margin's own
+    effect near the contact is of order 1e-4 mm)."""
+    from fabhal.primitives import yaw_jam_deg
+
+    link = make_primitive("hook1", "hook", {"arc_radius": 18, "arc_angle": 150, "thickness": 4}, {})
+    wire = _ring(195, 3)
+    jam = yaw_jam_deg(link, wire)
+    assert jam is not None and jam == pytest.approx(62.42, abs=0.01)
+    rho, r = 14.0, 3.0
+    t = np.linspace(0.0, 2.0 * np.pi, 20_000)
+
+    def outside(turn_deg: float) -> float:
+        along = r / np.cos(np.radians(turn_deg))
+        x, y = along * np.sin(t), (r - rho) - r * np.cos(t)
+        return float((np.hypot(x, y) - rho).max())
+
+    assert outside(jam - 0.05) <= 1e-9
+    assert outside(jam + 0.05) > 1e-6
+
+
+def test_a_snug_loop_cannot_turn_and_only_round_things_jam_it() -> None:
+    """A hook whose inside radius is no more than the rod's (a wire hook bent
+    open round it, N416) turns 0 degrees; on an edge (square in section) or
+    as a centre-line ring the formula does not apply (None)."""
+    from fabhal.primitives import yaw_jam_deg
+
+    hook = make_primitive("hook", "hook", {"arc_radius": 9.6, "arc_angle": 220, "thickness": 0.0}, {})
+    rod = make_primitive("rod", "rod", {"radius": 10.0, "length": 100.0}, {})
+    edge = make_primitive("edge", "edge", {"width": 10.0, "length": 100.0, "height": 10.0}, {})
+    centre_line = make_primitive("ring", "hole", {"arc_radius": 10.0, "thickness": 1.0}, {"centerline": True})
+    assert yaw_jam_deg(hook, rod) == 0.0
+    assert yaw_jam_deg(hook, edge) is None
+    assert yaw_jam_deg(centre_line, rod) is None
+    assert yaw_jam_deg(rod, hook) is None  # a rod goes round nothing

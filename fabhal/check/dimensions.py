@@ -13,33 +13,10 @@ from pathlib import Path
 from fabhal.check.context import CheckContext, other_end
 from fabhal.diagnostics import Diagnostic, Severity, error
 from fabhal.elaborate import Endpoint
-from fabhal.primitives import Primitive
+from fabhal.primitives import LOOPS, Primitive, across, opening
 
-_LOOPS = ("hook", "hole")
 # a flexible wire hook or ring (`flex: true`) can be bent open this much further
 FLEX_STRETCH = 0.05
-
-
-def opening(p: Primitive) -> float:
-    """Inside diameter of a hook or hole: what can pass through it."""
-    return 2.0 * (p.params["arc_radius"] - p.params["thickness"])
-
-
-def across(p: Primitive) -> float:
-    """How thick it is where another part goes around it (mm across)."""
-    if p.kind in _LOOPS:
-        return 2.0 * p.params["thickness"]
-    if p.kind == "rod":
-        return 2.0 * p.params["radius"]
-    if p.kind == "tube":
-        return 2.0 * (p.params["inner_radius"] + p.params["thickness"])
-    if p.kind == "edge":
-        return p.params["height"]
-    if p.kind == "clip":
-        return p.params["width"]
-    if p.kind == "hemisphere":
-        return 2.0 * p.params["radius"]
-    return 0.0
 
 
 def _loop_word(p: Primitive) -> str:
@@ -49,7 +26,7 @@ def _loop_word(p: Primitive) -> str:
 def bent_open(a: Primitive, b: Primitive) -> tuple[str, str] | None:
     """(message, help) when a flexible loop fits only once bent open a little."""
     for loop, other in ((a, b), (b, a)):
-        if loop.kind in _LOOPS and loop.flags.get("flex") and other.kind != "tube":
+        if loop.kind in LOOPS and loop.flags.get("flex") and other.kind != "tube":
             needed = across(other)
             if opening(loop) <= needed < opening(loop) * (1 + FLEX_STRETCH):
                 return (
@@ -64,20 +41,20 @@ def fit_problem(a: Primitive, b: Primitive) -> tuple[str, str] | None:
     """(message, help) when a and b cannot physically meet, else None."""
     kinds = {a.kind, b.kind}
     for loop, other in ((a, b), (b, a)):
-        if loop.kind not in _LOOPS:
+        if loop.kind not in LOOPS:
             continue
         if other.kind == "tube" and other.variant == "TubeCtl":
             continue  # threaded through the core: checked as the core's size below
         needed = across(other)
         stretch = 1 + FLEX_STRETCH if loop.flags.get("flex") else 1.0
         if opening(loop) * stretch <= needed:
-            what = f"the {other.kind}'s {'wire' if other.kind in _LOOPS else 'body'}"
+            what = f"the {other.kind}'s {'wire' if other.kind in LOOPS else 'body'}"
             return (
                 f"{_loop_word(loop)} opening {opening(loop):g} mm < {what} {needed:g} mm across",
                 f"use a {_loop_word(loop)} with a wider opening, or a thinner {other.kind}",
             )
     for tube, other in ((a, b), (b, a)):
-        if tube.kind != "tube" or other.kind not in ("rod", "tube", *_LOOPS):
+        if tube.kind != "tube" or other.kind not in ("rod", "tube", *LOOPS):
             continue
         core = 2.0 * tube.params["inner_radius"]
         goes_inside = other.kind == "rod" or tube.variant == "TubeCtl"
@@ -161,7 +138,7 @@ def room(p: Primitive) -> tuple[float, str] | None:
 def usage(host: Primitive, guest: Primitive) -> float:
     """What `guest` takes of `host`'s room."""
     if host.kind in ("rod", "tube", "edge"):
-        if guest.kind in _LOOPS:
+        if guest.kind in LOOPS:
             return 2.0 * guest.params["thickness"]
         if guest.kind == "clip":
             return guest.params["width"]

@@ -61,7 +61,6 @@ from fabhal.solve.steps import (
     with_friction,
     with_target_pull,
 )
-from fabhal.source import Span
 
 LOOP_KEPT_MM = 1e-3  # a result whose loops are open by more is never solved (E506)
 # a result with a part this deep in another is never solved (E508): five times the
@@ -221,15 +220,20 @@ def solve(model: Model, options: SolveOptions, loop_start: Array | None = None) 
     the start rather than the design (step 1 can leave a `fixed` hook turned onto
     its tip): FALL_RETRIES more attempts from the next seeds' starts, and of those
     that hold the one `_rank` prefers is the answer, with a note saying so. The
-    design falls apart only when every attempt does."""
+    design falls apart only when every attempt does. A result that does not
+    hang at rest (on a lean's stop, or not at rest at all) may be the fault of
+    how a connection is turned: where the program leaves that open, the solver
+    turns it over (`_aligned`); where it wrote it, the error says whether
+    turned over it would hang (`_with_flip_advice`)."""
     if options.time_limit is not None and not np.isfinite(options.deadline):
         options = replace(options, deadline=time.monotonic() + options.time_limit)
     first = _solve_once(model, options, loop_start)
-    if not first.falls or not options.gravity or options.start is not None:
+    if first.status in ("solved", "infeasible", "error") or not options.gravity or options.start is not None:
         return first  # a continued start is one try: the member's own solve makes the others
-    leans_only = all(isinstance(fall, Lean) for fall in first.falls)
-    if leans_only:  # a builder turns such a connection over before hanging it again
-        turned = _aligned(model, options, first)
+    if not first.falls:  # not at rest, or inside something: turned over, it may hang
+        return _aligned(model, options, first) or _with_flip_advice(model, options, first)
+    if all(isinstance(fall, Lean) for fall in first.falls):
+        turned = _aligned(model, options, first)  # a builder turns such a connection over first
         if turned is not None:
             return turned
     held: list[tuple[int, Solution]] = []
@@ -240,22 +244,22 @@ def solve(model: Model, options: SolveOptions, loop_start: Array | None = None) 
         retry = _solve_once(model, replace(options, seed=options.seed + k), None)
         if not retry.falls:
             held.append((k, retry))
-    if held:
-        # of the attempts that hold, the rule between starts (`_pick`): at rest, then nearest the request
-        k, best = min(held, key=lambda attempt: _rank(attempt[1].goal, attempt[1].frames, attempt[1]))
-        fall = first.falls[0]
-        note = Diagnostic(
-            Severity.NOTE,
-            "N504",
-            f"from the first start `{fall.part}` {_what_failed(fall)} here; from another start (seed "
-            f"{options.seed + k}) the design holds",
-            model.joints[fall.joint].connection.span,
-            "the result is that configuration; set up by hand, mind how this connection is turned",
-        )
-        return replace(best, diagnostics=(note, *best.diagnostics))
-    if leans_only:
+    if not held:
         return _with_flip_advice(model, options, first)
-    return first
+    # of the attempts that hold, the rule between starts (`_pick`): at rest, then nearest the request
+    k, best = min(held, key=lambda attempt: _rank(attempt[1].goal, attempt[1].frames, attempt[1]))
+    fall = first.falls[0]
+    holds = "the design holds" if best.status == "solved" else "nothing falls apart"
+    note = Diagnostic(
+        Severity.NOTE,
+        "N504",
+        f"from the first start `{fall.part}` {_what_failed(fall)} here; from another start (seed "
+        f"{options.seed + k}) {holds}",
+        model.joints[fall.joint].connection.span,
+        "the result is that configuration; set up by hand, mind how this connection is turned",
+    )
+    held_result = replace(best, diagnostics=(note, *best.diagnostics))
+    return held_result if best.status == "solved" else _with_flip_advice(model, options, held_result)
 
 
 def _what_failed(fall: Fall | Topple | Lean | Slip) -> str:
@@ -266,40 +270,37 @@ def _what_failed(fall: Fall | Topple | Lean | Slip) -> str:
     return "hung on a lean's limit" if isinstance(fall, Lean) else "slid off"
 
 
-def _leaning_connections(model: Model, result: Solution, aligned: bool) -> list[Connection]:
-    """The connections whose lean holds the result (E509), each once: those whose
-    alignment the program wrote (`aligned`) or those it leaves open."""
-    joints = dict.fromkeys(fall.joint for fall in result.falls)
-    return [model.joints[j].connection for j in joints if model.joints[j].connection.aligned == aligned]
-
-
-def _turnable(model: Model, result: Solution) -> list[Connection]:
-    """The connections the solver may turn over where the result leans on a stop:
-    those leaning whose alignment the program leaves open, then the other open
-    ones on the same primitive (two eye hooks on one door rod: turning the one
-    that does not lean may be what lets the other hang)."""
-    leaning = _leaning_connections(model, result, aligned=False)
-    held_on = {
-        (side.part, side.primitive.name)
-        for j in dict.fromkeys(fall.joint for fall in result.falls)
-        for side in (model.joints[j].a, model.joints[j].b)
-        if model.parts[side.part].environment
-    }
-    siblings = [
-        joint.connection
+def _suspects(model: Model, result: Solution) -> list[int]:
+    """The joints to turn over where the result does not hang at rest: those
+    whose lean holds it (E509), then those that hang a part on the
+    environment (of two eye hooks on one door rod, turning the one that does
+    not lean may be what lets the other hang; where nothing leans, not at rest
+    (E503) or in the environment (E508), they are the ones a builder turns)."""
+    leaning = [fall.joint for fall in result.falls]
+    on_environment = [
+        joint.index
         for joint in model.joints
-        if not joint.connection.aligned
-        and joint.connection not in leaning
-        and any((side.part, side.primitive.name) in held_on for side in (joint.a, joint.b))
+        if any(model.parts[side.part].environment for side in (joint.a, joint.b))
     ]
-    return leaning + siblings
+    return list(dict.fromkeys(leaning + on_environment))
+
+
+def _leaning_connections(model: Model, result: Solution, aligned: bool) -> list[Connection]:
+    """The suspects' connections (`_suspects`), in that order: those whose
+    alignment the program wrote (`aligned`) or those it leaves open (which the
+    solver may turn over)."""
+    return [
+        model.joints[j].connection
+        for j in _suspects(model, result)
+        if model.joints[j].connection.aligned == aligned
+    ]
 
 
 def _solved_turned(model: Model, options: SolveOptions, connection: Connection) -> Solution | None:
     """The design with `connection` turned over (`flip` toggled), if it solves; None otherwise."""
     if time.monotonic() > options.deadline:
         return None
-    options.report(f"held only by a lean's limit; trying {connection.a} -- {connection.b} turned over")
+    options.report(f"it does not hang at rest; trying {connection.a} -- {connection.b} turned over")
     turned = replace(connection, flip=not connection.flip)
     program = replace(
         model.program,
@@ -310,41 +311,65 @@ def _solved_turned(model: Model, options: SolveOptions, connection: Connection) 
 
 
 def _aligned(model: Model, options: SolveOptions, result: Solution) -> Solution | None:
-    """A hack held only by a lean's limit (E509), where the program leaves the
-    alignment of such a connection open (neither `flip` nor `noflip`): the
-    solver chooses it. The first of them that hangs at rest turned over gives
-    the result, with N507 saying so; None if none does."""
-    for connection in _turnable(model, result):
+    """A hack that does not hang at rest (held only by a lean's limit, E509; not
+    at rest, E503; inside the environment, E508), where the program leaves the
+    alignment of a suspect connection (`_suspects`) open (neither `flip` nor
+    `noflip`): the solver chooses it. The first of them that hangs at rest
+    turned over gives the result, with N507 saying so; None if none does."""
+    for connection in _leaning_connections(model, result, aligned=False):
         turned = _solved_turned(model, options, connection)
         if turned is not None:
-            return replace(turned, diagnostics=(_aligned_note(connection, turned), *turned.diagnostics))
+            note = _aligned_note(connection, turned, _failure(result))
+            return replace(turned, diagnostics=(note, *turned.diagnostics))
     return None
 
 
 def _with_flip_advice(model: Model, options: SolveOptions, result: Solution) -> Solution:
-    """A hack held only by a lean's limit (E509) on a connection whose alignment
-    the program wrote (`flip` or `noflip`): the result stays the program's own,
-    and if that connection turned the other way hangs at rest, its E509 says
-    so, with how near the request it would hang."""
-    advice: dict[Span, str] = {}
+    """A hack that does not hang at rest (`_suspects`) on a connection whose
+    alignment the program wrote (`flip` or `noflip`): the result stays the
+    program's own, and if that connection turned the other way hangs at rest,
+    the error says so (E509 at that connection; else the first error's help
+    names it), with how near the request it would hang."""
     for connection in _leaning_connections(model, result, aligned=True):
         turned = _solved_turned(model, options, connection)
-        if turned is not None:
-            position, rotation = turned.target_errors()
-            written = "without `flip`" if connection.flip else "with `flip`"
-            advice[connection.span] = (
-                f"this connection written {written} hangs the hack at rest, {position:.0f} mm and "
-                f"{rotation:.0f} degrees from the request"
-            )
-            break
-    diagnostics = tuple(
-        replace(d, help=advice[d.span]) if d.code == "E509" and d.span in advice else d
-        for d in result.diagnostics
-    )
-    return replace(result, diagnostics=diagnostics)
+        if turned is None:
+            continue
+        position, rotation = turned.target_errors()
+        written = "without `flip`" if connection.flip else "with `flip`"
+        hangs = (
+            f"written {written} hangs the hack at rest, {position:.0f} mm and {rotation:.0f} degrees "
+            "from the request"
+        )
+        return replace(result, diagnostics=_advised(result.diagnostics, connection, hangs))
+    return result
 
 
-def _aligned_note(connection: Connection, turned: Solution) -> Diagnostic:
+def _advised(
+    diagnostics: tuple[Diagnostic, ...], connection: Connection, hangs: str
+) -> tuple[Diagnostic, ...]:
+    """The diagnostics with `hangs` (what the connection turned over does) as the
+    help of its E509, or where it has none, of the first error (naming it)."""
+    if any(d.code == "E509" and d.span == connection.span for d in diagnostics):
+        return tuple(
+            replace(d, help=f"this connection {hangs}")
+            if d.code == "E509" and d.span == connection.span
+            else d
+            for d in diagnostics
+        )
+    first = next((d for d in diagnostics if d.is_error), None)
+    named = f"`{connection.a} -- {connection.b}` (line {connection.span.line}) {hangs}"
+    return tuple(replace(d, help=named) if d is first else d for d in diagnostics)
+
+
+def _failure(result: Solution) -> str:
+    """Why the default way round does not hang, for N507."""
+    if any(isinstance(fall, Lean) for fall in result.falls):
+        return "rests only on a lean's stop (E509)"
+    first = next((d.code for d in result.diagnostics if d.is_error), result.status)
+    return f"does not hang at rest ({first})"
+
+
+def _aligned_note(connection: Connection, turned: Solution, failure: str) -> Diagnostic:
     """N507: the solver turned a connection whose alignment the program left open."""
     position, rotation = turned.target_errors()
     return Diagnostic(
@@ -352,7 +377,7 @@ def _aligned_note(connection: Connection, turned: Solution) -> Diagnostic:
         "N507",
         f"aligned: `{connection.a} -- {connection.b}` turned over (as `flip` writes it): so the hack "
         f"hangs at rest, {position:.0f} mm and {rotation:.0f} degrees from the request; the default way "
-        "round rests only on a lean's stop (E509)",
+        f"round {failure}",
         connection.span,
         "build it turned over; write `flip` to say so, or `noflip` to keep the default way round and see "
         "why it does not hang",
@@ -1314,7 +1339,9 @@ def _verify(
         joint = model.joints[model.variables[i].joint]
         if outward and pushed and is_open:
             falls.append(Fall(joint.index, i, end, _falling_part(model, joint, model.variables[i].side)))
-        elif outward and dof.lean and abs(force[k]) > LEAN_CARRIES and not _in_a_corner(problem, x, i):
+        elif (
+            outward and not dof.ends_hold and abs(force[k]) > LEAN_CARRIES and not _in_a_corner(problem, x, i)
+        ):
             part = model.parts[model.side_of(i).part].name
             falls.append(Lean(joint.index, i, end, float(abs(force[k])), part))
     at_bound = tuple(sorted(int(free[k]) for k in resting))

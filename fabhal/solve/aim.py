@@ -85,7 +85,7 @@ def aim(
     free, per_mm = problem.free, problem.scale
     moving = np.setdiff1d(np.arange(len(free)), chosen)
     low, high = (bound[free] for bound in model.bounds())
-    leans = np.array([model.variables[int(free[k])].dof.lean for k in moving], dtype=bool)
+    leans = np.array([not model.variables[int(free[k])].dof.ends_hold for k in moving], dtype=bool)
 
     def weighed(v: Array) -> Array:
         """(moving,) the energy's gradient on each DoF gravity moves, over the weight per mm."""

@@ -16,9 +16,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from fabhal.check.dimensions import across
 from fabhal.kinematics.frames import Array
 from fabhal.model import Joint, Model, Side, threaded
+from fabhal.primitives import across
 
 
 @dataclass(frozen=True)

@@ -118,17 +118,17 @@ def test_before_a_loop_is_called_impossible_the_best_try_is_continued(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
     """A large model's loops may need more evaluations than one start gets (a
-    hoop on 12 chains closed only in a longer run). With 2 starts of 4
+    hoop on 12 chains closed only in a longer run). With 2 starts of 10
     evaluations each the reading nook's loops stay open (checked with the
-    continuation cut to 1x); continuing the best try POLISH_FACTOR times longer
-    (40 evaluations) closes them, to 1e-6 mm."""
+    continuation cut to 1x: 76 mm); continuing the best try POLISH_FACTOR
+    times longer (100 evaluations) closes them, to 1e-6 mm."""
     from fabhal.check import cycles
     from fabhal.check.cycles import CLOSED_MM, close_loops
 
     model = api.check(REPO / "programs" / "reading_nook.fhl").model
     assert model is not None
     monkeypatch.setattr(cycles, "POLISH_FACTOR", 1)
-    assert not cycles.close_loops(model, starts=2, evaluations=4).closed  # the case: too small a budget
+    assert not cycles.close_loops(model, starts=2, evaluations=10).closed  # the case: too small a budget
     monkeypatch.undo()
-    continued = close_loops(model, starts=2, evaluations=4)
+    continued = close_loops(model, starts=2, evaluations=10)
     assert continued.closed and continued.worst_position_mm < CLOSED_MM

@@ -161,9 +161,11 @@ def test_what_the_designer_keeps_the_checker_accepts(seed: int, tmp_path: Path) 
 
 def test_the_target_itself_hung_from_two_rods(tmp_path: Path) -> None:
     """No hub: the basket's handle held by two eye hooks, one on each closet rod
-    (the gallery's closet basket, 17.9 mm there with its `flip` written; here
-    the solver chooses each eye hook's way round). One eye hook alone hangs
-    the basket from one rod, about 100 mm off: it cannot sit between them."""
+    (the gallery's closet basket, 6.9 mm there with its `flip` written; here
+    the solver chooses each eye hook's way round, and its first choice that
+    hangs at rest is kept: 31 mm, the eye rings turned on the rods as far as
+    their wires jam). One eye hook alone hangs the basket from one rod, about
+    100 mm off: it cannot sit between them."""
     run = fabhal(
         "design", str(SPECS / "basket_between_rods.fhl"), "--inventory", str(SPECS / "eye_hooks.toml"),
         "-j", "1", "--json",
@@ -173,6 +175,6 @@ def test_the_target_itself_hung_from_two_rods(tmp_path: Path) -> None:
     assert (
         best["key"] == "basket.hook <- HookEyeLeftS <- rods.rod1 + basket.hook <- HookEyeLeftS <- rods.rod2"
     )
-    assert best["status"] == "solved" and best["position_mm"] < 20.0 and best["parts"] == 2
+    assert best["status"] == "solved" and best["position_mm"] < 40.0 and best["parts"] == 2
     one = min(d["position_mm"] for d in data["designs"] if d["parts"] == 1 and d["status"] == "solved")
     assert one > 80.0

@@ -632,12 +632,18 @@ def test_parts_that_cannot_be_taken_apart_pass_through_each_other_e508(
     """Where step 1 cannot take two crossing parts apart (here: told they do
     not cross), the settle leaves them as placed, and the result says they
     pass through each other, with how far their walls cross (more than
-    CROSSING_SPAN_MM), not a wall's 2 mm depth: E508, never solved."""
+    CROSSING_SPAN_MM), not a wall's 2 mm depth: E508, never solved. (The two
+    mugs asked for with m1 20 mm left of the middle: step 1 leaves m2's rim
+    through m1's wall. The S-hooks' way round is pinned, `noflip`: turned
+    over, one hangs them apart, and the solver would take that.)"""
     import fabhal.solve.steps as steps_module
     from fabhal.solve.contacts import CROSSING_SPAN_MM
 
     monkeypatch.setattr(steps_module, "passing_through", lambda *_: frozenset())
-    result = two_mugs(tmp_path)
+    program = tmp_path / "two_mugs.fhl"
+    text = mugs_on_a_rod(2, 120, "target m1.hook at (-20, 0, 240) rot (0, 0, 0)")
+    program.write_text(text.replace(".hook2 -- rod", ".hook2 -- rod noflip"))
+    result = api.solve(program)
     assert result.status == "not_at_rest"
     (through,) = [d for d in result.diagnostics if d.code == "E508"]
     assert " passes through `m" in through.message and "their walls cross over " in through.message
