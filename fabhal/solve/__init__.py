@@ -20,7 +20,7 @@ from fabhal.elaborate import Connection
 from fabhal.kinematics.frames import Array
 from fabhal.kinematics.statics import MOMENT_ARM_MM, Wrenches
 from fabhal.meshes import mass_properties
-from fabhal.model import Joint, Model, build_model
+from fabhal.model import Joint, Model, Side, build_model
 from fabhal.solve import aim as aim_mod
 from fabhal.solve import reach
 from fabhal.solve import target as target_mod
@@ -259,7 +259,9 @@ def solve(model: Model, options: SolveOptions, loop_start: Array | None = None) 
         "the result is that configuration; set up by hand, mind how this connection is turned",
     )
     held_result = replace(best, diagnostics=(note, *best.diagnostics))
-    return held_result if best.status == "solved" else _with_flip_advice(model, options, held_result)
+    if best.status == "solved":
+        return held_result
+    return _aligned(model, options, held_result) or _with_flip_advice(model, options, held_result)
 
 
 def _what_failed(fall: Fall | Topple | Lean | Slip) -> str:
@@ -271,29 +273,52 @@ def _what_failed(fall: Fall | Topple | Lean | Slip) -> str:
 
 
 def _suspects(model: Model, result: Solution) -> list[int]:
-    """The joints to turn over where the result does not hang at rest: those
-    whose lean holds it (E509), then those that hang a part on the
-    environment (of two eye hooks on one door rod, turning the one that does
-    not lean may be what lets the other hang; where nothing leans, not at rest
-    (E503) or in the environment (E508), they are the ones a builder turns)."""
-    leaning = [fall.joint for fall in result.falls]
-    on_environment = [
+    """The joints to turn over where the result does not hang at rest: where
+    something falls or leans on a stop, those joints, then the others on the
+    same primitive of the environment (of two eye hooks on one door rod,
+    turning the one that does not lean may be what lets the other hang); where
+    nothing does (not at rest, E503, or in the environment, E508), those that
+    hang a part on the environment."""
+    if result.falls:
+        failing = list(dict.fromkeys(fall.joint for fall in result.falls))
+        places = {
+            (side.part, side.primitive.name)
+            for j in failing
+            for side in (model.joints[j].a, model.joints[j].b)
+            if model.parts[side.part].environment
+        }
+    else:
+        failing = []
+        places = {(side.part, side.primitive.name) for side in _environment_sides(model)}
+    beside = [
         joint.index
         for joint in model.joints
-        if any(model.parts[side.part].environment for side in (joint.a, joint.b))
+        if any((side.part, side.primitive.name) in places for side in (joint.a, joint.b))
     ]
-    return list(dict.fromkeys(leaning + on_environment))
+    return list(dict.fromkeys(failing + beside))
+
+
+def _environment_sides(model: Model) -> list[Side]:
+    """The sides of the connections that are the environment's."""
+    return [
+        side for joint in model.joints for side in (joint.a, joint.b) if model.parts[side.part].environment
+    ]
+
+
+# connections turned over at most, each a whole solve (a hoop on 12 ceiling hooks has 12 suspects)
+TURNS_TRIED = 4
 
 
 def _leaning_connections(model: Model, result: Solution, aligned: bool) -> list[Connection]:
-    """The suspects' connections (`_suspects`), in that order: those whose
-    alignment the program wrote (`aligned`) or those it leaves open (which the
-    solver may turn over)."""
-    return [
+    """The suspects' connections (`_suspects`), in that order, TURNS_TRIED at
+    most: those whose alignment the program wrote (`aligned`) or those it
+    leaves open (which the solver may turn over)."""
+    connections = [
         model.joints[j].connection
         for j in _suspects(model, result)
         if model.joints[j].connection.aligned == aligned
     ]
+    return connections[:TURNS_TRIED]
 
 
 def _solved_turned(model: Model, options: SolveOptions, connection: Connection) -> Solution | None:
