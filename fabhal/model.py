@@ -911,7 +911,7 @@ def _jam_yaw(joint: Joint, variables: list[DofVariable]) -> None:
     turnbuckle hook turned 44 degrees on its ring's 6.6 mm wire, where it jams
     at 28, its wire through the ring's. Where the jam lies beyond the range,
     the range stays. Where both sides flex, each is limited so, and their turns
-    about the one line add up (docs/physics.md, "Leans")."""
+    about the one line add up (docs/physics.md, "The model")."""
     jam = yaw_jam(joint)
     if jam is None:
         return
