@@ -651,18 +651,20 @@ def test_parts_that_cannot_be_taken_apart_pass_through_each_other_e508(
     assert span > CROSSING_SPAN_MM
 
 
-THREE_MUGS = mugs_on_a_rod(3, 150, "target m2.hook at (0, 0, 240) rot (0, 0, 0)")
+THREE_MUGS = mugs_on_a_rod(3, 140, "target m2.hook at (0, 0, 240) rot (0, 0, 0)")
 
 
 def test_three_mugs_on_one_rod_come_to_rest_against_each_other(tmp_path: Path) -> None:
-    """Three mugs (90 mm across) on a 150 mm rod cannot hang apart: taken
+    """Three mugs (90 mm across) on a 140 mm rod cannot hang apart: taken
     apart by their hulls, they lean on each other. Between movable parts the
     springs give PARTS_GIVE_MM (0.5 mm) under the whole weight on one point:
     with the world's 0.2 mm this settle stopped 0.2 % of the weight short of
     rest (E503). Now solved: verified at rest to 0.1 % of the weight, no part
     more than 1 mm inside another by the check's points, the middle mug
     touched by both others, and each contact sinks far less than the give
-    (the load spreads over many points: under 0.1 mm)."""
+    (the load spreads over many points: under 0.1 mm). (On a 150 mm rod, since
+    the S-hooks turn on the handles only until their wires jam, the first start
+    ends on a lean's stop and the solve takes 150 s; 140 mm: 15 s.)"""
     program = tmp_path / "three_mugs.fhl"
     program.write_text(THREE_MUGS)
     result = api.solve(program)
