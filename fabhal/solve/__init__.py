@@ -309,7 +309,7 @@ def _environment_sides(model: Model) -> list[Side]:
 TURNS_TRIED = 4
 
 
-def _leaning_connections(model: Model, result: Solution, aligned: bool) -> list[Connection]:
+def _suspect_connections(model: Model, result: Solution, aligned: bool) -> list[Connection]:
     """The suspects' connections (`_suspects`), in that order, TURNS_TRIED at
     most: those whose alignment the program wrote (`aligned`) or those it
     leaves open (which the solver may turn over)."""
@@ -341,7 +341,7 @@ def _aligned(model: Model, options: SolveOptions, result: Solution) -> Solution 
     alignment of a suspect connection (`_suspects`) open (neither `flip` nor
     `noflip`): the solver chooses it. The first of them that hangs at rest
     turned over gives the result, with N507 saying so; None if none does."""
-    for connection in _leaning_connections(model, result, aligned=False):
+    for connection in _suspect_connections(model, result, aligned=False):
         turned = _solved_turned(model, options, connection)
         if turned is not None:
             note = _aligned_note(connection, turned, _failure(result))
@@ -355,7 +355,7 @@ def _with_flip_advice(model: Model, options: SolveOptions, result: Solution) -> 
     program's own, and if that connection turned the other way hangs at rest,
     the error says so (E509 at that connection; else the first error's help
     names it), with how near the request it would hang."""
-    for connection in _leaning_connections(model, result, aligned=True):
+    for connection in _suspect_connections(model, result, aligned=True):
         turned = _solved_turned(model, options, connection)
         if turned is None:
             continue
