@@ -16,6 +16,7 @@ from fabhal.diagnostics import Diagnostic, FabhalError, error, warning
 from fabhal.evaluate import Value, evaluate, number
 from fabhal.library import BARE_PRIMITIVES, Library, PartSpec, bare_primitive
 from fabhal.load import LoadedProgram
+from fabhal.primitives import turning_to_the_jam, yaw_jam_between
 from fabhal.source import Span
 from fabhal.syntax import ast
 from fabhal.syntax.format import format_ref
@@ -262,10 +263,12 @@ class _Elaborator:
                     )
                 ]
             )
-        side = sides["ab".index(labels[0])]
-        primitive = self.part(side.part).spec.primitive(side.primitive)
-        assert primitive is not None  # the endpoint was resolved
-        dofs = {d.name: d for d in primitive.dofs}
+        side, other_side = sides if labels[0] == "a" else sides[::-1]
+        primitive, other = (self.part(end.part).spec.primitive(end.primitive) for end in (side, other_side))
+        assert primitive is not None and other is not None  # the endpoints were resolved
+        # a flex angle's range ends where its wire jams on the other side (as the model's)
+        jam = yaw_jam_between(primitive, other)
+        dofs = {d.name: turning_to_the_jam(d, primitive.variant, jam) for d in primitive.dofs}
         if written.dof not in dofs:
             suggestion = did_you_mean(written.dof, dofs)
             listed = ", ".join(f"`{name}`" for name in dofs) or "none"
@@ -282,8 +285,9 @@ class _Elaborator:
                         f"`{_setting_name(written)}` is {value:g}, outside its range "
                         f"{dof.low:g} .. {dof.high:g}",
                         written.value.span,
-                        "t runs along the primitive from 0 to 1; angles are degrees (`fabhal solve --dofs` "
-                        "shows each DoF's range)",
+                        "t runs along the primitive from 0 to 1; angles are degrees; a flex angle's range "
+                        "ends where the wire jams on what it goes round (`fabhal solve --dofs` shows each "
+                        "DoF's range)",
                     )
                 ]
             )

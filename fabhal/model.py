@@ -24,7 +24,16 @@ from numpy.typing import NDArray
 
 from fabhal.elaborate import Connection, Endpoint, FlatProgram, PartInstance
 from fabhal.kinematics.frames import Array, angular_velocities, frame_matrix, invert
-from fabhal.primitives import FRAME_FORMULAS, Dof, FrameFormula, Primitive, alignment_offset, yaw_jam_deg
+from fabhal.primitives import (
+    FLEXING,
+    FRAME_FORMULAS,
+    Dof,
+    FrameFormula,
+    Primitive,
+    alignment_offset,
+    turning_to_the_jam,
+    yaw_jam_between,
+)
 
 Index = NDArray[np.intp]
 
@@ -882,50 +891,27 @@ def _keep_threaded(joint: Joint, variables: list[DofVariable]) -> None:
 def _yaws(joint: Joint) -> tuple[int, ...]:
     """The flex angles (`phi` of a flexible hook or ring) of a connection: turns
     of a loop about the line of the contact, both about the same line."""
-    return tuple(
-        side.dof_indices[1]
-        for side in (joint.a, joint.b)
-        if side.primitive.variant in ("HookFlex", "RingFlex")
-    )
-
-
-def yaw_jam(joint: Joint) -> float | None:
-    """How far the connection's two sides turn about the line of their contact
-    before a wire jams (degrees from square; `primitives.yaw_jam_deg`): the
-    less of each loop's on what it goes round (a link on a thick ring jams on
-    the ring's wire before the ring jams on the link's); None where neither is
-    a loop round something round."""
-    jams = [
-        jam
-        for loop, inside in ((joint.a, joint.b), (joint.b, joint.a))
-        if (jam := yaw_jam_deg(loop.primitive, inside.primitive)) is not None
-    ]
-    return min(jams, default=None)
+    return tuple(side.dof_indices[1] for side in (joint.a, joint.b) if side.primitive.variant in FLEXING)
 
 
 def _jam_yaw(joint: Joint, variables: list[DofVariable]) -> None:
-    """A flex angle (a turn of a loop about the line of its contact) turns as
-    far as its wire jams (`yaw_jam`), a real stop that carries what presses on
-    it, where that comes before the end of the model's range ([45, 135], the
-    reference's, whose ends nothing real holds: E509). A clip light's
-    turnbuckle hook turned 44 degrees on its ring's 6.6 mm wire, where it jams
-    at 28, its wire through the ring's. Where the jam lies beyond the range,
-    the range stays. Where both sides flex, each is limited so, and their turns
-    about the one line add up (docs/physics.md, "The model")."""
-    jam = yaw_jam(joint)
-    if jam is None:
-        return
-    for i in _yaws(joint):
-        dof = variables[i].dof
-        if dof.default - jam > dof.low:
-            limited = replace(dof, low=dof.default - jam, high=dof.default + jam, jammed=True)
-            variables[i] = replace(variables[i], dof=limited)
+    """Each flex angle turns only until its wire jams (`turning_to_the_jam`):
+    before, a clip light's turnbuckle hook turned 44 degrees on its ring's 6.6
+    mm wire, where it jams at 28, its wire through the ring's. Where both sides
+    flex, each is limited so, and their turns about the one line add up
+    (docs/physics.md, "The model")."""
+    jam = yaw_jam_between(joint.a.primitive, joint.b.primitive)
+    for side in (joint.a, joint.b):
+        for i in side.dof_indices:
+            variables[i] = replace(
+                variables[i], dof=turning_to_the_jam(variables[i].dof, side.primitive.variant, jam)
+            )
 
 
 def _unturning_yaws(joint: Joint) -> tuple[int, ...]:
     """The flex angles of a loop too snug on what it goes round to turn at all
     (a wire hook bent open round a rod: N416): they stay square (pinned)."""
-    return _yaws(joint) if yaw_jam(joint) == 0.0 else ()
+    return _yaws(joint) if yaw_jam_between(joint.a.primitive, joint.b.primitive) == 0.0 else ()
 
 
 def _keep_within(variables: list[DofVariable], i: int, margin: float) -> None:

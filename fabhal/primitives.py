@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from enum import Enum
 from functools import cached_property
 
@@ -528,6 +528,29 @@ def yaw_jam_deg(loop: Primitive, inside: Primitive) -> float | None:
     if rho <= r:
         return 0.0
     return math.degrees(math.acos(math.sqrt(r / rho)))
+
+
+def yaw_jam_between(a: Primitive, b: Primitive) -> float | None:
+    """How far two connected primitives turn about the line of their contact
+    before a wire jams (degrees from square): the less of each loop's on what
+    it goes round (a link on a thick ring jams on the ring's wire before the
+    ring jams on the link's); None where neither is a loop round something round."""
+    jams = [jam for loop, inside in ((a, b), (b, a)) if (jam := yaw_jam_deg(loop, inside)) is not None]
+    return min(jams, default=None)
+
+
+FLEXING = ("HookFlex", "RingFlex")  # the variants whose `phi` turns about the line of the contact
+
+
+def turning_to_the_jam(dof: Dof, variant: str, jam: float | None) -> Dof:
+    """A flex angle (`phi` of a flexible hook or ring) turns as far as its wire
+    jams (`jam`, from `yaw_jam_between`), a real stop that carries what presses
+    on it, where that comes before the end of its range ([45, 135], the
+    reference's, whose ends nothing real holds: E509); any other DoF, or a jam
+    beyond the range, as it is."""
+    if jam is None or variant not in FLEXING or dof.name != "phi" or dof.default - jam <= dof.low:
+        return dof
+    return replace(dof, low=dof.default - jam, high=dof.default + jam, jammed=True)
 
 
 # Which kinds may connect: the paper's Table 2 (13 unordered pairs).

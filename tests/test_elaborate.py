@@ -135,6 +135,11 @@ MISTAKES = {
     "s1 = DoubleHook()\ns2 = DoubleHook()\nconnect s1.hook2 -- rod set (s2.hook1.theta: 90)\n"
     "connect s2.hook2 -- s1.hook1 set (s1.hook1.t: 0.5, s2.hook2.theta: 300)\n"
     "connect s2.hook1 -- rod set (rod.t: 0.2, rod.t: 0.3, rod.spin: 720)\n",
+    # a flex angle set past where its wire jams: the S-hook (9.6 mm inside) on the mug's
+    # 6 mm handle jams at acos(sqrt(6 / 9.6)) = 37.76 degrees, so 130 lies outside 52.24 .. 127.76
+    "setting_past_a_jam": "environment rod = Rod(length: 500, radius: 2) at (0, 0, 200)\n"
+    "s1 = DoubleHook()\nmug = Mug()\nconnect s1.hook2 -- rod\n"
+    "connect mug.hook -- s1.hook1 set (s1.hook1.phi: 130)\n",
 }
 
 
