@@ -25,12 +25,12 @@ from numpy.typing import NDArray
 from fabhal.elaborate import Connection, Endpoint, FlatProgram, PartInstance
 from fabhal.kinematics.frames import Array, angular_velocities, frame_matrix, invert
 from fabhal.primitives import (
-    FLEXING,
     FRAME_FORMULAS,
     Dof,
     FrameFormula,
     Primitive,
     alignment_offset,
+    is_flex_angle,
     turning_to_the_jam,
     yaw_jam_between,
 )
@@ -891,7 +891,12 @@ def _keep_threaded(joint: Joint, variables: list[DofVariable]) -> None:
 def _yaws(joint: Joint) -> tuple[int, ...]:
     """The flex angles (`phi` of a flexible hook or ring) of a connection: turns
     of a loop about the line of the contact, both about the same line."""
-    return tuple(side.dof_indices[1] for side in (joint.a, joint.b) if side.primitive.variant in FLEXING)
+    return tuple(
+        i
+        for side in (joint.a, joint.b)
+        for i, dof in zip(side.dof_indices, side.primitive.dofs, strict=True)
+        if is_flex_angle(dof, side.primitive.variant)
+    )
 
 
 def _jam_yaw(joint: Joint, variables: list[DofVariable]) -> None:

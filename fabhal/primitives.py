@@ -542,13 +542,19 @@ def yaw_jam_between(a: Primitive, b: Primitive) -> float | None:
 FLEXING = ("HookFlex", "RingFlex")  # the variants whose `phi` turns about the line of the contact
 
 
+def is_flex_angle(dof: Dof, variant: str) -> bool:
+    """Whether `dof` is a flex angle: the `phi` of a flexible hook or ring, its
+    turn about the line of its contact."""
+    return variant in FLEXING and dof.name == "phi"
+
+
 def turning_to_the_jam(dof: Dof, variant: str, jam: float | None) -> Dof:
     """A flex angle (`phi` of a flexible hook or ring) turns as far as its wire
     jams (`jam`, from `yaw_jam_between`), a real stop that carries what presses
     on it, where that comes before the end of its range ([45, 135], the
     reference's, whose ends nothing real holds: E509); any other DoF, or a jam
     beyond the range, as it is."""
-    if jam is None or variant not in FLEXING or dof.name != "phi" or dof.default - jam <= dof.low:
+    if jam is None or not is_flex_angle(dof, variant) or dof.default - jam <= dof.low:
         return dof
     return replace(dof, low=dof.default - jam, high=dof.default + jam, jammed=True)
 

@@ -20,7 +20,7 @@ from fabhal.elaborate import Connection
 from fabhal.kinematics.frames import Array
 from fabhal.kinematics.statics import MOMENT_ARM_MM, Wrenches
 from fabhal.meshes import mass_properties
-from fabhal.model import Joint, Model, Side, build_model
+from fabhal.model import Joint, Model, build_model
 from fabhal.solve import aim as aim_mod
 from fabhal.solve import reach
 from fabhal.solve import target as target_mod
@@ -51,8 +51,8 @@ from fabhal.solve.steps import (
     FRICTION_SMOOTHING_MM,
     Fit,
     Problem,
-    _feasible,
     closure_residual_mm,
+    feasible,
     fit_target,
     mm_per_unit,
     potential,
@@ -279,30 +279,20 @@ def _suspects(model: Model, result: Solution) -> list[int]:
     turning the one that does not lean may be what lets the other hang); where
     nothing does (not at rest, E503, or in the environment, E508), those that
     hang a part on the environment."""
-    if result.falls:
-        failing = list(dict.fromkeys(fall.joint for fall in result.falls))
-        places = {
-            (side.part, side.primitive.name)
-            for j in failing
-            for side in (model.joints[j].a, model.joints[j].b)
-            if model.parts[side.part].environment
-        }
-    else:
-        failing = []
-        places = {(side.part, side.primitive.name) for side in _environment_sides(model)}
+    failing = list(dict.fromkeys(fall.joint for fall in result.falls))
+    looked_at = [model.joints[j] for j in failing] if failing else model.joints
+    places = {
+        (side.part, side.primitive.name)
+        for joint in looked_at
+        for side in (joint.a, joint.b)
+        if model.parts[side.part].environment
+    }
     beside = [
         joint.index
         for joint in model.joints
         if any((side.part, side.primitive.name) in places for side in (joint.a, joint.b))
     ]
     return list(dict.fromkeys(failing + beside))
-
-
-def _environment_sides(model: Model) -> list[Side]:
-    """The sides of the connections that are the environment's."""
-    return [
-        side for joint in model.joints for side in (joint.a, joint.b) if model.parts[side.part].environment
-    ]
 
 
 # connections turned over at most, each a whole solve (a hoop on 12 ceiling hooks has 12 suspects)
@@ -557,7 +547,7 @@ def _crowded(step1: Problem, v: Array, closed: Array) -> Diagnostic | None:
     has two such parts closer than their widths allow: the design as connected
     cannot be built."""
     model = step1.model
-    if not model.closures or not step1.spacing or _feasible(step1, v):
+    if not model.closures or not step1.spacing or feasible(step1, v):
         return None
     rules = spacing_constraints(model, closed)  # in the closure's own order: distances >= 0
     apart = spacing_values(rules, closed)

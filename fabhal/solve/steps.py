@@ -287,7 +287,7 @@ def fit_target(
             stalled=_fit_stalled,
         ).x
         r = residuals(v)[0]
-        return v, float(r @ r) if _feasible(problem, v) else np.inf
+        return v, float(r @ r) if feasible(problem, v) else np.inf
 
     def out_of_the_world(result: Fit) -> Fit:
         """The fit again from where it ended, now kept out of the environment,
@@ -523,7 +523,7 @@ def mm_per_unit(model: Model) -> Array:
     return scales
 
 
-def _feasible(problem: Problem, v: Array) -> bool:
+def feasible(problem: Problem, v: Array) -> bool:
     """Loops closed (to 1e-4 mm) and spacings kept. The closure is checked on the
     whole residual: the six the optimiser keeps at zero (`_to_six`) also vanish
     where a connector is turned half round, a loop closed the wrong way."""
