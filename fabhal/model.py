@@ -82,6 +82,21 @@ class Standing:
 
 
 @dataclass(frozen=True)
+class TurnLimit:
+    """The flex angles of both sides of one connection (two loops, each turned
+    about the line of their contact) turn the parts about that one line, so
+    their turns add: together they turn until a wire jams (`jam`, degrees from
+    square), not each alone (two S-hooks once turned 23 degrees each where
+    they jam at 44 in all). Kept as |(x[first] - 90) + sign (x[second] - 90)|
+    <= jam: two linear inequalities for the solver (fabhal/solve/spacing.py)."""
+
+    first: int  # DoF index of one side's flex angle
+    second: int  # the other side's
+    sign: float  # +1 where both turn the parts the same way relative to each other
+    jam: float
+
+
+@dataclass(frozen=True)
 class DofVariable:
     name: str  # e.g. "s1.hook2.theta"
     dof: Dof
@@ -110,6 +125,7 @@ class Model:
     # `with_play`); empty when every loop closes exactly
     closure_play: tuple[float, ...] = ()
     written: frozenset[int] = frozenset()  # DoFs the program sets (`set (...)`): in `pinned`, never moved
+    turn_limits: tuple[TurnLimit, ...] = ()  # flex angles on both sides of a connection, jammed together
 
     # ---- the DoF vector
 
@@ -770,6 +786,7 @@ def _assemble(program: FlatProgram, parts: tuple[PartInstance, ...]) -> Model:
         pinned,
         standing,
         written=written,
+        turn_limits=tuple(limit for joint in joints if (limit := _turning_together(joint, written))),
     )
 
 
@@ -903,14 +920,31 @@ def _jam_yaw(joint: Joint, variables: list[DofVariable]) -> None:
     """Each flex angle turns only until its wire jams (`turning_to_the_jam`):
     before, a clip light's turnbuckle hook turned 44 degrees on its ring's 6.6
     mm wire, where it jams at 28, its wire through the ring's. Where both sides
-    flex, each is limited so, and their turns about the one line add up
-    (docs/physics.md, "The model")."""
+    flex, each is limited so, and their sum too (`_turning_together`)."""
     jam = yaw_jam_between(joint.a.primitive, joint.b.primitive)
     for side in (joint.a, joint.b):
         for i in side.dof_indices:
             variables[i] = replace(
                 variables[i], dof=turning_to_the_jam(variables[i].dof, side.primitive.variant, jam)
             )
+
+
+def _turning_together(joint: Joint, written: frozenset[int]) -> TurnLimit | None:
+    """Where both sides of a connection flex (`_yaws`), the limit on their
+    turns together. Each turn is an Rz at the end of its side's connector
+    frame, and the alignment maps a's z to sigma times b's (sigma = +-1, with
+    no shift across the line), so b hangs from a through Rz(a's turn) offset
+    Rz(-b's turn) = Rz(a's turn - sigma b's turn) offset: the turns add where
+    the alignment flips z (two hooks face to face). None where one side does
+    not flex, the jam is 0 (both pinned square: `_unturning_yaws`), the
+    program sets both, or the alignment does not keep the line."""
+    yaws = _yaws(joint)
+    jam = yaw_jam_between(joint.a.primitive, joint.b.primitive)
+    sigma = float(joint.offset[2, 2])
+    keeps_line = abs(abs(sigma) - 1.0) < 1e-9 and np.allclose(joint.offset[:2, 3], 0.0)
+    if len(yaws) != 2 or not jam or set(yaws) <= written or not keeps_line:
+        return None
+    return TurnLimit(yaws[0], yaws[1], -sigma, jam)
 
 
 def _unturning_yaws(joint: Joint) -> tuple[int, ...]:

@@ -109,10 +109,14 @@ def test_a_note_on_many_aimed_settings_names_four_and_counts_the_rest() -> None:
     assert note.help is not None and note.help.startswith("also ")
 
 
-def test_reading_nook_says_where_its_chains_cross() -> None:
-    """The nook's two chains converge on the hoop, and a ring of one crosses a
-    link of the other between the settle's contact points (40 mm apart on a
-    ring): W508 names them and the depth, and the status stays `solved`.
+def test_crossing_wires_are_found_and_measured() -> None:
+    """The reading nook as it hung before the turns of the links on the hoop's
+    ring were bounded together (tests/data/reading_nook_crossed.json): two
+    links turned 44 and 45 degrees on the ring where together they jam at 25,
+    and ring6 of one chain crossed link3 of the other between the settle's
+    contact points (40 mm apart on a ring). The check's points find the pair
+    and the depth (W508's). Today's nook keeps its turns within the jams and
+    its chains do not cross: no W508.
 
     Measured independently of the distance grids: 40,000 points on the ring's
     mesh (about 1.3 mm apart) against 200,000 on the link's (0.14 mm apart),
@@ -122,23 +126,28 @@ def test_reading_nook_says_where_its_chains_cross() -> None:
     the deepest may fall up to about 2.1 mm (half a diagonal) from one, where two
     crossed 4 mm-radius wires are shallower by s^2 / 2r = 2.1^2 / 8 = 0.55 mm,
     plus under a cell of trilinear rounding near the wire (2 mm cells): the
-    warning's depth is a lower bound within 1.5 mm."""
-    import re
+    found depth is a lower bound within 1.5 mm."""
+    import json
 
     import trimesh
     from scipy.spatial import cKDTree
 
+    import fabhal.solve as solve_module
     from fabhal import meshes
+    from fabhal.solve.contacts import contact_pairs
 
-    result = solved("reading_nook")
-    assert result.status == "solved"
-    (warned,) = [d for d in result.diagnostics if d.code == "W508"]
-    part, other = re.findall(r"`(\w+)`", warned.message)[:2]
-    depth = float(re.search(r"by ([0-9.]+) mm", warned.message).group(1))
+    today = solved("reading_nook")
+    assert today.status == "solved" and "W508" not in [d.code for d in today.diagnostics]
+    model = today.solution.model
+    x = np.array(json.loads((REPO / "tests" / "data" / "reading_nook_crossed.json").read_text())["x"])
+    limits = model.turn_limits
+    together = [abs(x[limit.first] - 90.0 + limit.sign * (x[limit.second] - 90.0)) for limit in limits]
+    assert all(limit.jam == pytest.approx(25.0, abs=0.1) for limit in model.turn_limits)
+    assert max(together) > 40.0  # turned past the jam, as each alone allowed
+    ((mine, theirs, depth),) = solve_module._crossings(model, x, contact_pairs(model))
+    assert {model.parts[mine].name, model.parts[theirs].name} == {"ring6", "link3"}
     assert 1.0 < depth <= 5.0
-    assert warned.span is not None and warned.span.line == 52  # the target's line, as E508
-    model, frames = result.solution.model, result.solution.frames
-    mine, theirs = model.part_index(part), model.part_index(other)
+    frames = model.part_frames(x)
     points = np.asarray(
         trimesh.sample.sample_surface(meshes.part_mesh(model.parts[mine].spec), 40_000, seed=1)[0]
     )

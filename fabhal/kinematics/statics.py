@@ -43,6 +43,9 @@ class Wrenches:
     moments: Array  # (J, 3) N mm about each connection's contact point
     imbalance: float  # largest unbalanced force (N, moments per MOMENT_ARM_MM) over all parts
     unbalanced: Array  # (P, 2) per part: the force (N) and the moment (N mm) left over (0 for environments)
+    # (K, J, 3) N: the forces of a loop's own force states (balanced by themselves: any
+    # multiple may be added to `forces`), which the smallest wrenches leave out
+    indeterminate: Array
 
 
 def _skew(r: Array) -> Array:
@@ -106,32 +109,79 @@ def joint_wrenches(
     if force_only is not None:
         for j in np.flatnonzero(force_only):
             matrix[:, 6 * j + 3 : 6 * j + 6] = 0.0  # no moment unknowns: the least squares leaves them 0
-    solution = _least_squares(matrix, rhs)
+    solution, own = _least_squares(matrix, rhs)
     wrenches = solution.reshape(n_joints, 6)
     residual = np.abs(matrix @ solution - rhs) if len(rhs) else np.zeros(0)
     per_part = residual[:n_balance].reshape(-1, 2, 3)
     unbalanced = np.zeros((n_parts, 2))
     unbalanced[placed] = np.linalg.norm(per_part, axis=2) * (1.0, MOMENT_ARM_MM)
     imbalance = float(residual.max(initial=0.0))
-    return Wrenches(wrenches[:, :3], wrenches[:, 3:] * MOMENT_ARM_MM, imbalance, unbalanced)
+    own_forces = own.reshape(len(own), n_joints, 6)[:, :, :3]
+    return Wrenches(wrenches[:, :3], wrenches[:, 3:] * MOMENT_ARM_MM, imbalance, unbalanced, own_forces)
 
 
-def _least_squares(matrix: Array, rhs: Array) -> Array:
+def _least_squares(matrix: Array, rhs: Array) -> tuple[Array, Array]:
     """The minimum-norm least-squares solution (SVD, directions below SINGULAR left
-    out); for large systems of full column rank by the normal equations, the same
-    solution to rounding (their Cholesky pivots, the singular values' scale,
-    all above SINGULAR of the largest). Unknowns no equation uses (the moments
-    of a connection that carries none) are 0, as the minimum norm has them."""
+    out), and those directions (K, unknowns) among the used unknowns: the
+    loop's own force states. For large systems of full column rank (none of
+    their own) by the normal equations, the same solution to rounding (their
+    Cholesky pivots, the singular values' scale, all above SINGULAR of the
+    largest). Unknowns no equation uses (the moments of a connection that
+    carries none) are 0, as the minimum norm has them. The solution is
+    LAPACK's least squares (gelsd), not the directions' SVD: where a singular
+    value lies near SINGULAR the two round it differently, and three mugs on one
+    rod (a nearly singular leaning loop) settled elsewhere."""
+    n = matrix.shape[1]
     if not matrix.size:
-        return np.zeros(matrix.shape[1])
-    if matrix.shape[1] >= NORMAL_EQUATIONS_UNKNOWNS:
+        return np.zeros(n), np.zeros((0, n))
+    if n >= NORMAL_EQUATIONS_UNKNOWNS:
         used = np.flatnonzero(np.any(matrix != 0.0, axis=0))
         solved = _normal_equations(matrix[:, used], rhs)
         if solved is not None:
-            solution = np.zeros(matrix.shape[1])
+            solution = np.zeros(n)
             solution[used] = solved
-            return solution
-    return np.asarray(np.linalg.lstsq(matrix, rhs, rcond=SINGULAR)[0], dtype=float)
+            return solution, np.zeros((0, n))
+    solution = np.asarray(np.linalg.lstsq(matrix, rhs, rcond=SINGULAR)[0], dtype=float)
+    return solution, _own_states(matrix)
+
+
+def _own_states(matrix: Array) -> Array:
+    """(K, unknowns) an orthonormal basis of the directions the equations leave
+    free (singular values below SINGULAR of the largest), among the unknowns
+    some equation uses."""
+    used = np.flatnonzero(np.any(matrix != 0.0, axis=0))
+    own = np.zeros((0, matrix.shape[1]))
+    if not len(used):
+        return own
+    values, right = np.linalg.svd(matrix[:, used], full_matrices=matrix.shape[0] < len(used))[1:]
+    rank = int(np.sum(values > SINGULAR * values.max()))
+    own = np.zeros((len(used) - rank, matrix.shape[1]))
+    own[:, used] = right[rank:]
+    return own
+
+
+def pressing(normal: Array, own: Array) -> Array:
+    """The contacts' normal forces (M,) made as nearly all pressing (>= 0) as
+    a loop's own force states allow: own (K, M) is what each adds to them, in
+    any multiple. Least squares of the shortfalls (min(0, force)^2, summed),
+    convex and piecewise quadratic: Newton's step on the contacts short each
+    time (a few steps; the loops are few)."""
+    combination = np.zeros(len(own))
+    for _ in range(PRESSING_STEPS):
+        forces = normal + combination @ own
+        short = forces < 0.0
+        if not short.any() or not len(own):
+            return forces
+        rows = own[:, short]
+        gram = rows @ rows.T
+        step = np.linalg.lstsq(gram, -(rows @ forces[short]), rcond=SINGULAR)[0]
+        if np.abs(step).max(initial=0.0) < 1e-12:
+            break
+        combination += step
+    return normal + combination @ own
+
+
+PRESSING_STEPS = 20
 
 
 def _normal_equations(matrix: Array, rhs: Array) -> Array | None:

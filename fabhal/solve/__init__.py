@@ -18,9 +18,9 @@ from fabhal.check.cycles import close_loops
 from fabhal.diagnostics import Diagnostic, Severity, error, warning
 from fabhal.elaborate import Connection
 from fabhal.kinematics.frames import Array
-from fabhal.kinematics.statics import MOMENT_ARM_MM, Wrenches
+from fabhal.kinematics.statics import MOMENT_ARM_MM, Wrenches, pressing
 from fabhal.meshes import mass_properties
-from fabhal.model import Joint, Model, build_model
+from fabhal.model import Joint, Model, Side, build_model, threaded
 from fabhal.solve import aim as aim_mod
 from fabhal.solve import reach
 from fabhal.solve import target as target_mod
@@ -45,7 +45,7 @@ from fabhal.solve.forces import (
     slide_dofs,
     weight_newtons,
 )
-from fabhal.solve.spacing import Spacing, spacing_constraints, spacing_values, spread
+from fabhal.solve.spacing import Spacing, spacing_constraints, spacing_values, spread, stopped_turns
 from fabhal.solve.steps import (
     FRICTION,
     FRICTION_SMOOTHING_MM,
@@ -181,6 +181,21 @@ class Lean:
 
 
 @dataclass(frozen=True)
+class LiftOff:
+    """A contact that would have to pull: the parts of a hook, ring or rod
+    connection only press on each other (along the contact's normal), so where
+    the statics needs the one to pull the other, the real parts separate there
+    (a hook hung from the inside of a ring's top, pulled down by what hangs
+    from it). Where they go then is not computed."""
+
+    joint: int
+    holder: str  # the side that would have to pull (the placed one: nearer the environment)
+    held: str  # the side it would have to pull, whose part lifts off
+    part: str  # that part
+    pull: float  # N: the force along the contact's normal the holder would have to pull with
+
+
+@dataclass(frozen=True)
 class Topple:
     joint: int  # the connection of the object and the floor it stands on
     part: str  # the object that falls over
@@ -188,6 +203,10 @@ class Topple:
     slope_deg: float  # the floor's slope
     floor: str  # the connection's side ("a" or "b") that is the floor
     on_feet: bool = False  # it stands on round feet (points), not on a base
+
+
+# what keeps a result from being at rest, each said by an error
+Failure = Fall | Topple | Lean | Slip | LiftOff
 
 
 @dataclass(frozen=True)
@@ -202,7 +221,7 @@ class Solution:
     residual: float  # largest loop-closure error, mm
     equilibrium: float | None  # KKT residual after settling, relative; None without gravity
     at_bound: tuple[int, ...]  # DoFs resting on an end of their range
-    falls: tuple[Fall | Topple | Lean | Slip, ...]
+    falls: tuple[Failure, ...]
     diagnostics: tuple[Diagnostic, ...]
     # (J, 3) N that each connection's a side exerts on its b side, world axes; None without gravity
     forces: Array | None = None
@@ -242,10 +261,13 @@ def solve(model: Model, options: SolveOptions, loop_start: Array | None = None) 
             break
         options.report(f"it fell apart; trying again from seed {options.seed + k}")
         retry = _solve_once(model, replace(options, seed=options.seed + k), None)
-        if not retry.falls:
+        if not retry.falls and retry.residual <= LOOP_KEPT_MM:  # an open loop holds nothing (E506)
             held.append((k, retry))
     if not held:
-        return _with_flip_advice(model, options, first)
+        # a contact that pulls is often a connection turned the wrong way (a hook hung
+        # from inside a ring's top): turned over, it may hang
+        lifts = any(isinstance(fall, LiftOff) for fall in first.falls)
+        return (lifts and _aligned(model, options, first)) or _with_flip_advice(model, options, first)
     # of the attempts that hold, the rule between starts (`_pick`): at rest, then nearest the request
     k, best = min(held, key=lambda attempt: _rank(attempt[1].goal, attempt[1].frames, attempt[1]))
     fall = first.falls[0]
@@ -264,11 +286,13 @@ def solve(model: Model, options: SolveOptions, loop_start: Array | None = None) 
     return _aligned(model, options, held_result) or _with_flip_advice(model, options, held_result)
 
 
-def _what_failed(fall: Fall | Topple | Lean | Slip) -> str:
+def _what_failed(fall: Failure) -> str:
     if isinstance(fall, Topple):
         return "fell over"
     if isinstance(fall, Slip):
         return "slid on its feet"
+    if isinstance(fall, LiftOff):
+        return "lifted off its contact"
     return "hung on a lean's limit" if isinstance(fall, Lean) else "slid off"
 
 
@@ -277,20 +301,25 @@ def _suspects(model: Model, result: Solution) -> list[int]:
     something falls or leans on a stop, those joints, then the others on the
     same primitive of the environment (of two eye hooks on one door rod,
     turning the one that does not lean may be what lets the other hang); where
-    nothing does (not at rest, E503, or in the environment, E508), those that
-    hang a part on the environment."""
+    nothing does (not at rest, E503, or in the environment, E508), or what
+    fails is not on the environment (a basket's handle lifting off its eye
+    hook, E512, whose eye rings on the door are turned the wrong way), those
+    that hang a part on the environment."""
     failing = list(dict.fromkeys(fall.joint for fall in result.falls))
-    looked_at = [model.joints[j] for j in failing] if failing else model.joints
-    places = {
-        (side.part, side.primitive.name)
-        for joint in looked_at
-        for side in (joint.a, joint.b)
-        if model.parts[side.part].environment
-    }
+
+    def places(joints: Iterable[Joint]) -> set[tuple[int, str]]:
+        return {
+            (side.part, side.primitive.name)
+            for joint in joints
+            for side in (joint.a, joint.b)
+            if model.parts[side.part].environment
+        }
+
+    on_the_world = places(model.joints[j] for j in failing) or places(model.joints)
     beside = [
         joint.index
         for joint in model.joints
-        if any((side.part, side.primitive.name) in places for side in (joint.a, joint.b))
+        if any((side.part, side.primitive.name) in on_the_world for side in (joint.a, joint.b))
     ]
     return list(dict.fromkeys(failing + beside))
 
@@ -327,7 +356,8 @@ def _solved_turned(model: Model, options: SolveOptions, connection: Connection) 
 
 def _aligned(model: Model, options: SolveOptions, result: Solution) -> Solution | None:
     """A hack that does not hang at rest (held only by a lean's limit, E509; not
-    at rest, E503; inside the environment, E508), where the program leaves the
+    at rest, E503; inside the environment, E508; or, from no start, without a
+    contact that pulls, E512), where the program leaves the
     alignment of a suspect connection (`_suspects`) open (neither `flip` nor
     `noflip`): the solver chooses it. The first of them that hangs at rest
     turned over gives the result, with N507 saying so; None if none does."""
@@ -715,7 +745,7 @@ class Settled:
     x: Array
     equilibrium: float | None  # KKT residual, relative to the weight; None without gravity
     at_bound: tuple[int, ...]
-    falls: tuple[Fall | Topple | Lean | Slip, ...]
+    falls: tuple[Failure, ...]
     forces: Array | None = None  # (J, 3) N each connection carries there (see Solution)
     contacts: tuple[Contact, ...] = ()
     # the movable parts whose contact springs acted between them (`_settle`)
@@ -738,7 +768,7 @@ def _wrenches(
     model = problem.model
     moving = set(problem.free.tolist())
     fixed = {i for i in range(len(model.variables)) if i not in moving}
-    ends = {int(problem.free[k]) for k in _resting_ends(problem, x)}
+    ends = {int(problem.free[k]) for k in _resting_ends(problem, x)} | stopped_turns(model.turn_limits, x)
     loads = contact_loads(model, contacts) if contacts else None
     return connection_wrenches(model, x, masses, centres, fixed | ends | set(slide_dofs(slides)), loads)
 
@@ -968,7 +998,63 @@ def _settle_with(
     contacts = contacts_at(model, x, pairs, weight)
     wrenches = _wrenches(step2, x, masses, centres, slides, contacts)
     topples = (*_topples(model, x, wrenches, set(at_bound)), *_tips_off_its_feet(model, x, wrenches, weight))
-    return Settled(x, equilibrium, at_bound, (*falls, *topples), wrenches.forces, contacts, leaning)
+    lifts = _lifts_off(model, x, wrenches, masses)
+    return Settled(x, equilibrium, at_bound, (*falls, *topples, *lifts), wrenches.forces, contacts, leaning)
+
+
+# a contact "pulls" where the pull along its normal is over this fraction of the assembly's
+# weight: the statics' split of a loop's load (least squares) leaves a few thousandths
+# of it on contacts that carry nothing (the caddy's lower S-hooks: 0.002 N)
+LIFT_CARRIES = 0.01
+
+
+def _lifts_off(model: Model, x: Array, wrenches: Wrenches, masses: Array) -> tuple[LiftOff, ...]:
+    """The connections that would have to pull (`LiftOff`): of those that only
+    press (`_presses_only`), where the force side a exerts on side b points
+    against a's normal (the connector frame's z points from a's material to
+    what it holds: the gallery's hooks, rings and rods all press along it).
+    In a loop the statics' smallest wrenches are one split of the load among
+    many: a contact pulls only where no split (the loop's own force states
+    added, `statics.pressing`) lets every contact press (a mug hung on a rod
+    and on the S-hook beside it: the smallest split has the handle pull the
+    S-hook up; another has it carry the S-hook's weight)."""
+    joints = [joint for joint in model.joints if _presses_only(joint)]
+    if not joints:
+        return ()
+    frames = model.part_frames(x)
+    index = np.array([joint.index for joint in joints])
+    normals = np.array([model.connector_frame(joint.a, x, frames)[:3, 2] for joint in joints])
+    along = pressing(
+        np.einsum("jk,jk->j", wrenches.forces[index], normals),
+        np.einsum("sjk,jk->sj", wrenches.indeterminate[:, index], normals),
+    )
+    limit = LIFT_CARRIES * float(weight_newtons(masses).sum())
+    lifts = []
+    for joint, force in zip(joints, along, strict=True):
+        if -force > limit:
+            holder, held = _holder_and_held(model, joint)
+            name = model.parts[held.part].name
+            lifts.append(
+                LiftOff(joint.index, str(joint.endpoint(holder)), str(joint.endpoint(held)), name, -force)
+            )
+    return tuple(lifts)
+
+
+def _holder_and_held(model: Model, joint: Joint) -> tuple[Side, Side]:
+    """A connection's sides, the one nearer the environment first: an
+    environment's, else the side the spanning tree hangs the other from."""
+    if model.parts[joint.b.part].environment or model.tree_child.get(joint.index) == joint.a.part:
+        return joint.b, joint.a
+    return joint.a, joint.b
+
+
+def _presses_only(joint: Joint) -> bool:
+    """Whether a connection's parts can only press on each other: a hook, ring
+    or rod resting on another, not held (a clip's grip, `fixed`, standing on a
+    floor: those carry either way, or are judged as standing), not a sleeve
+    threaded on a rod (it holds it all round)."""
+    kinds = {joint.a.primitive.kind, joint.b.primitive.kind}
+    return not joint.held and threaded(joint) is None and kinds <= {"hook", "hole", "rod", "tube", "edge"}
 
 
 def _topples(model: Model, x: Array, wrenches: Wrenches, at_bound: set[int]) -> tuple[Topple, ...]:
@@ -1332,9 +1418,9 @@ def _verify(
     rows = []
     if model.closures:
         rows.append(problem.closure_jacobian(x[free]))
-    if problem.spacing:
-        values = problem.spacing_values(x[free])
-        rows.append(problem.spacing_jacobian()[values < 1e-6])
+    if problem.has_limits():
+        values = problem.limit_values(x[free])
+        rows.append(problem.limit_jacobian()[values < 1e-6])
     inside = np.array([k for k in range(len(free)) if k not in resting], dtype=int)
     force = gradient.copy()
     if rows and len(inside):
@@ -1408,13 +1494,15 @@ def _falling_part(model: Model, joint: Joint, side: str) -> str:
     return model.parts[other.part].name
 
 
-def _fall_diagnostic(model: Model, fall: Fall | Topple | Lean | Slip) -> Diagnostic:
+def _fall_diagnostic(model: Model, fall: Failure) -> Diagnostic:
     if isinstance(fall, Topple):
         return _topple_diagnostic(model, fall)
     if isinstance(fall, Slip):
         return _slip_diagnostic(model, fall)
     if isinstance(fall, Lean):
         return _lean_diagnostic(model, fall)
+    if isinstance(fall, LiftOff):
+        return _lift_off_diagnostic(model, fall)
     variable = model.variables[fall.dof]
     joint = model.joints[fall.joint]
     end = joint.connection.a if variable.side == "a" else joint.connection.b
@@ -1482,6 +1570,18 @@ def _lean_diagnostic(model: Model, lean: Lean) -> Diagnostic:
         joint.connection.span,
         "this way of connecting does not hang here: turn a connection the other way (`flip`), or hang "
         "the part from a second point",  # `_with_flip_advice` says which way, where it knows
+    )
+
+
+def _lift_off_diagnostic(model: Model, lift: LiftOff) -> Diagnostic:
+    joint = model.joints[lift.joint]
+    return error(
+        "E512",
+        f"the assembly falls apart here: `{lift.holder}` would have to pull `{lift.held}` with "
+        f"{lift.pull:.2f} N to hold it, but a contact only presses: `{lift.part}` lifts off",
+        joint.connection.span,
+        "hung this way the weight pulls the parts apart (a hook from the inside of a ring's top): hang it "
+        "where what holds it is beneath it, or turn the connection the other way (`flip`)",
     )
 
 

@@ -1,4 +1,6 @@
-"""Spacing: parts sharing a rod, tube or edge cannot pass through each other.
+"""The solver's linear inequalities: spacing, and flex angles turning together.
+
+Spacing: parts sharing a rod, tube or edge cannot pass through each other.
 
 For two connections i, j on one primitive of length L, to different parts,
 with half-widths c_i, c_j (a hook's wire radius, half a clip's width):
@@ -7,6 +9,9 @@ with half-widths c_i, c_j (a hook's wire radius, half a clip's width):
 
 where s keeps the order they start in (the paper's |t_i - t_j| L >= (w_i + w_j)/2,
 made smooth). Linear in x, so its Jacobian is constant.
+
+Turning together (`TurnLimit`, fabhal/model.py): where both sides of a
+connection flex, |(x_i - 90) + sign (x_j - 90)| <= jam, as two rows.
 """
 
 from __future__ import annotations
@@ -17,7 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from fabhal.kinematics.frames import Array
-from fabhal.model import Joint, Model, Side, threaded
+from fabhal.model import Joint, Model, Side, TurnLimit, threaded
 from fabhal.primitives import across
 
 
@@ -140,3 +145,27 @@ def _connected(constraints: list[Spacing]) -> list[list[int]]:
         merged = {c.first, c.second}.union(*joined) if joined else {c.first, c.second}
         groups = [g for g in groups if g not in joined] + [merged]
     return [sorted(g) for g in groups]
+
+
+SQUARE_DEG = 90.0  # a flex angle's value where its loop is square to what it goes round
+
+
+def turn_rows(limits: tuple[TurnLimit, ...], n: int) -> tuple[Array, Array]:
+    """(2k, n) G and (2k,) h with G x + h >= 0 exactly where every limit holds:
+    jam - u >= 0 and jam + u >= 0, u = (x_i - 90) + sign (x_j - 90)."""
+    matrix, offset = np.zeros((2 * len(limits), n)), np.zeros(2 * len(limits))
+    for k, limit in enumerate(limits):
+        for row, way in ((2 * k, -1.0), (2 * k + 1, 1.0)):
+            matrix[row, limit.first] = way
+            matrix[row, limit.second] = way * limit.sign
+            offset[row] = limit.jam - way * SQUARE_DEG * (1.0 + limit.sign)
+    return matrix, offset
+
+
+def stopped_turns(limits: tuple[TurnLimit, ...], x: Array) -> set[int]:
+    """The flex angles of the limits x rests on (within 1e-6 degrees): stopped
+    together where the wire jams, which carries what presses on it."""
+    matrix, offset = turn_rows(limits, len(x))
+    on = np.any((matrix @ x + offset <= 1e-6).reshape(-1, 2), axis=1).tolist()
+    stopped = [limit for limit, jammed in zip(limits, on, strict=True) if jammed]
+    return {i for limit in stopped for i in (limit.first, limit.second)}

@@ -39,7 +39,7 @@ from fabhal.solve import target as target_mod
 from fabhal.solve.contacts import Pairs, passing_through, penetration
 from fabhal.solve.energy import Energy
 from fabhal.solve.forces import Slide, slide_dofs, weight_newtons
-from fabhal.solve.spacing import Spacing, spacing_jacobian, spacing_values
+from fabhal.solve.spacing import Spacing, spacing_jacobian, spacing_values, turn_rows
 
 # static friction coefficient of a part sliding along a rod, tube or edge (steel, plastic, wood)
 FRICTION = 0.3
@@ -120,11 +120,22 @@ class Problem:
     def closure_jacobian(self, v: Array) -> Array:
         return _to_six(self.model.closure_jacobian(self.full(v)))[:, self.free]
 
-    def spacing_values(self, v: Array) -> Array:
-        return spacing_values(self.spacing, self.full(v))
+    def limit_values(self, v: Array) -> Array:
+        """The linear inequalities' values (>= 0 where kept): spacing, then turning together."""
+        matrix, offset = self._turns
+        return np.concatenate([spacing_values(self.spacing, self.full(v)), matrix @ self.full(v) + offset])
 
-    def spacing_jacobian(self) -> Array:
-        return spacing_jacobian(self.spacing, len(self.x_base))[:, self.free]
+    def limit_jacobian(self) -> Array:
+        """Their rows over the free DoFs (constant: the inequalities are linear)."""
+        rows = np.vstack([spacing_jacobian(self.spacing, len(self.x_base)), self._turns[0]])
+        return rows[:, self.free]
+
+    @cached_property
+    def _turns(self) -> tuple[Array, Array]:
+        return turn_rows(self.model.turn_limits, len(self.x_base))
+
+    def has_limits(self) -> bool:
+        return bool(self.spacing or self.model.turn_limits)
 
     def equality(self) -> Callable[[Array], tuple[Array, Array]] | None:
         """Loop closure as the optimiser's equality constraints (None without loops)."""
@@ -133,10 +144,11 @@ class Problem:
         return lambda v: (self.closure(v), self.closure_jacobian(v))
 
     def linear(self) -> Linear | None:
-        """Spacing as the optimiser's linear inequalities (None without shared primitives)."""
-        if not self.spacing:
+        """Spacing and turning together as the optimiser's linear inequalities
+        (None without either)."""
+        if not self.has_limits():
             return None
-        return Linear(self.spacing_jacobian(), self.spacing_values(np.zeros(len(self.free))))
+        return Linear(self.limit_jacobian(), self.limit_values(np.zeros(len(self.free))))
 
     @cached_property
     def scale(self) -> Array:
@@ -524,12 +536,13 @@ def mm_per_unit(model: Model) -> Array:
 
 
 def feasible(problem: Problem, v: Array) -> bool:
-    """Loops closed (to 1e-4 mm) and spacings kept. The closure is checked on the
-    whole residual: the six the optimiser keeps at zero (`_to_six`) also vanish
-    where a connector is turned half round, a loop closed the wrong way."""
+    """Loops closed (to 1e-4 mm), spacings and turn limits kept. The closure is
+    checked on the whole residual: the six the optimiser keeps at zero
+    (`_to_six`) also vanish where a connector is turned half round, a loop
+    closed the wrong way."""
     if closure_residual_mm(problem.model, problem.full(v)) > 1e-4:
         return False
-    return not problem.spacing or bool(problem.spacing_values(v).min() > -1e-6)
+    return not problem.has_limits() or bool(problem.limit_values(v).min() > -1e-6)
 
 
 def unbalanced_force(gradient: Array, constraint: Array, fitted: Array | None = None) -> Array:

@@ -131,3 +131,45 @@ def test_many_bars_on_two_pivots_keep_the_smallest_reactions() -> None:
     )
     np.testing.assert_allclose(wrenches.forces[:, 2], np.tile([2.5, 7.5], bars), atol=1e-9)
     np.testing.assert_allclose(wrenches.forces[:, :2], 0.0, atol=1e-9)
+
+
+def test_a_loops_own_force_states_are_given() -> None:
+    """The bar on two pivots (as above, centre at x = 100): the pivots'
+    reactions along x are indeterminate, a push of s at one balanced by s at
+    the other (what a exerts on b, equal and opposite along x: the bar
+    squeezed or stretched between them); vertically the lever rule fixes
+    everything. So the own states' forces are multiples of (+1, -1) along x
+    at the two pivots, and nothing vertical (1e-9: an SVD's orthonormal basis)."""
+    wrenches = joint_wrenches(
+        part_a=np.array([0, 0]),
+        part_b=np.array([1, 1]),
+        points=np.array([[0.0, 0.0, 0.0], [200.0, 0.0, 0.0]]),
+        movable=np.array([False, True]),
+        loads=np.array([[0.0, 0.0, 0.0], [0.0, 0.0, -10.0]]),
+        centres=np.array([[0.0, 0.0, 0.0], [100.0, 0.0, 0.0]]),
+        free_joint=np.array([0, 1]),
+        free_velocity=np.zeros((2, 3)),
+        free_rotation=np.array([[0.0, 1.0, 0.0], [0.0, 1.0, 0.0]]),
+    )
+    own = wrenches.indeterminate  # (K, J, 3)
+    assert len(own)
+    np.testing.assert_allclose(own[:, :, 2], 0.0, atol=1e-9)
+    along_x = own[:, :, 0]
+    np.testing.assert_allclose(along_x[:, 0], -along_x[:, 1], atol=1e-9)
+    assert np.abs(along_x).max() > 0.1  # the squeeze is among them
+
+
+def test_pressing_uses_a_loops_own_states_to_make_contacts_press() -> None:
+    """Normal forces (N) with a loop's own state adding (+1, -1) in any
+    multiple. (-1, 3): one contact pulls; adding 1 of the state gives (0, 2),
+    all pressing. (-1, -1): the state only moves load from one to the other,
+    so the least shortfall is where they share it, (-1, -1) itself. Without
+    a state nothing can change. Newton on the short contacts is exact here
+    (the shortfall is quadratic on each piece): 1e-12."""
+    from fabhal.kinematics.statics import pressing
+
+    state = np.array([[1.0, -1.0]])
+    np.testing.assert_allclose(pressing(np.array([-1.0, 3.0]), state), [0.0, 2.0], atol=1e-12)
+    np.testing.assert_allclose(pressing(np.array([-1.0, -1.0]), state), [-1.0, -1.0], atol=1e-12)
+    np.testing.assert_allclose(pressing(np.array([-1.0, 3.0]), np.zeros((0, 2))), [-1.0, 3.0])
+    np.testing.assert_allclose(pressing(np.array([2.0, 3.0]), state), [2.0, 3.0])

@@ -17,6 +17,7 @@ import fabhal.solve as solve_module
 from fabhal import api
 from fabhal.meshes import mass_properties
 from fabhal.solve import Solution
+from fabhal.solve.forces import weight_newtons
 from tests.conftest import REPO
 from tests.solve.test_contacts import TWO_MUGS
 
@@ -537,14 +538,25 @@ def test_a_loop_keeps_the_order_its_closure_found_on_a_shared_rod(tmp_path: Path
     rod: a loop. The check closes it with the handle 18 mm along the rod from
     the S-hook, on the side it reaches; the spread start puts them the other
     way round, from which no start closed the loop, and the result was
-    `falls_apart` with a loop open by 29 mm ("a solver fault", E506). Now
-    solved: the loop closed (1e-6 mm), at rest, and the two contacts on the rod
-    at least their widths apart (the S-hook's 4 mm wire and the handle's, 8 mm
-    in all: the spacing rule, to 1e-6 mm)."""
+    `falls_apart` with a loop open by 29 mm ("a solver fault", E506). Now the
+    loop is closed (1e-6 mm) and the two contacts on the rod at least their
+    widths apart (the S-hook's 4 mm wire and the handle's, 8 mm in all: the
+    spacing rule, to 1e-6 mm).
+
+    Where it settles the S-hook hangs swung along the rod with its lower hook
+    jammed in the handle, and the balance needs the handle to pull it up
+    (0.085 N of its 0.106 N weight; the rod takes the rest): this was once
+    `solved`. A contact only presses, so the S-hook lifts off the handle:
+    E512 at the handle's connection, `falls_apart` (other starts do not
+    close the loop, and an open loop holds nothing)."""
     result = solve_text(tmp_path, MUG_ON_ROD_AND_HOOK)
-    assert result.status == "solved", result.diagnostics
+    assert result.status == "falls_apart", result.diagnostics
+    (lifts,) = [d for d in result.diagnostics if d.code == "E512"]
+    assert lifts.span is not None and lifts.span.line == 5  # connect mug.hook -- s1.hook1
     solution = result.solution
-    assert solution.residual < 1e-6 and solution.equilibrium < 1e-3
+    (lift,) = solution.falls
+    assert 0.0 < lift.pull < float(weight_newtons(solution.masses)[solution.model.part_index("s1")])
+    assert solution.residual < 1e-6
     model = solution.model
     on_rod = [k for k, j in enumerate(model.joints) if model.parts[j.b.part].name == "rod"]
     points = model.connection_points(model.forward(solution.x))[on_rod]
