@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from fabhal.kinematics.statics import joint_wrenches
+from fabhal.kinematics.statics import Wrenches, joint_wrenches
 
 NONE = np.zeros(0, dtype=int)
 NO_MOTION = np.zeros((0, 3))
@@ -33,6 +33,22 @@ def test_a_chain_carries_everything_below_each_link() -> None:
     assert wrenches.imbalance < 1e-9
 
 
+def bar_on_two_pivots(centre: float) -> Wrenches:
+    """A 10 N bar (centre of mass at x = `centre`) on pivots at x = 0 and 200,
+    each free to turn about y."""
+    return joint_wrenches(
+        part_a=np.array([0, 0]),
+        part_b=np.array([1, 1]),
+        points=np.array([[0.0, 0.0, 0.0], [200.0, 0.0, 0.0]]),
+        movable=np.array([False, True]),
+        loads=np.array([[0.0, 0.0, 0.0], [0.0, 0.0, -10.0]]),
+        centres=np.array([[0.0, 0.0, 0.0], [centre, 0.0, 0.0]]),
+        free_joint=np.array([0, 1]),
+        free_velocity=np.zeros((2, 3)),
+        free_rotation=np.array([[0.0, 1.0, 0.0], [0.0, 1.0, 0.0]]),
+    )
+
+
 def test_a_bar_on_two_pivots_shares_its_weight_by_the_lever_rule() -> None:
     """A 10 N bar from x = -100 to x = 300 (centre at x = 100) rests on pivots at
     x = 0 and x = 200, each free to turn about y (a free motion: no moment about
@@ -41,17 +57,7 @@ def test_a_bar_on_two_pivots_shares_its_weight_by_the_lever_rule() -> None:
     The pivots' other reactions are indeterminate; the smallest are taken
     (zero). Tolerance 1e-9 N."""
     for centre, expected in ((100.0, (5.0, 5.0)), (150.0, (2.5, 7.5))):
-        wrenches = joint_wrenches(
-            part_a=np.array([0, 0]),
-            part_b=np.array([1, 1]),
-            points=np.array([[0.0, 0.0, 0.0], [200.0, 0.0, 0.0]]),
-            movable=np.array([False, True]),
-            loads=np.array([[0.0, 0.0, 0.0], [0.0, 0.0, -10.0]]),
-            centres=np.array([[0.0, 0.0, 0.0], [centre, 0.0, 0.0]]),
-            free_joint=np.array([0, 1]),
-            free_velocity=np.zeros((2, 3)),
-            free_rotation=np.array([[0.0, 1.0, 0.0], [0.0, 1.0, 0.0]]),
-        )
+        wrenches = bar_on_two_pivots(centre)
         np.testing.assert_allclose(wrenches.forces[:, 2], expected, atol=1e-9)
         np.testing.assert_allclose(wrenches.forces[:, :2], 0.0, atol=1e-9)
         np.testing.assert_allclose(wrenches.moments[:, 1], 0.0, atol=1e-9)
@@ -140,18 +146,7 @@ def test_a_loops_own_force_states_are_given() -> None:
     squeezed or stretched between them); vertically the lever rule fixes
     everything. So the own states' forces are multiples of (+1, -1) along x
     at the two pivots, and nothing vertical (1e-9: an SVD's orthonormal basis)."""
-    wrenches = joint_wrenches(
-        part_a=np.array([0, 0]),
-        part_b=np.array([1, 1]),
-        points=np.array([[0.0, 0.0, 0.0], [200.0, 0.0, 0.0]]),
-        movable=np.array([False, True]),
-        loads=np.array([[0.0, 0.0, 0.0], [0.0, 0.0, -10.0]]),
-        centres=np.array([[0.0, 0.0, 0.0], [100.0, 0.0, 0.0]]),
-        free_joint=np.array([0, 1]),
-        free_velocity=np.zeros((2, 3)),
-        free_rotation=np.array([[0.0, 1.0, 0.0], [0.0, 1.0, 0.0]]),
-    )
-    own = wrenches.indeterminate  # (K, J, 3)
+    own = bar_on_two_pivots(100.0).indeterminate  # (K, J, 3)
     assert len(own)
     np.testing.assert_allclose(own[:, :, 2], 0.0, atol=1e-9)
     along_x = own[:, :, 0]

@@ -1,5 +1,6 @@
 """A hook, ring or rod contact only presses: a result that needs one to pull
-is not a state of rest (E512), and the solver looks for one that is."""
+is not a state of rest (E512), and the solver looks for one that is (the
+retries: tests/solve/test_physics.py)."""
 
 from __future__ import annotations
 
@@ -7,9 +8,7 @@ from pathlib import Path
 
 import pytest
 
-from fabhal import api
 from fabhal.solve.forces import weight_newtons
-from tests.conftest import REPO
 from tests.solve.test_physics import solve_text
 
 # the S-hook's contact written at theta 300, the top of the ceiling hook's ring
@@ -52,34 +51,3 @@ def test_the_same_hook_at_the_bottom_of_the_ring_hangs(tmp_path: Path) -> None:
     result = solve_text(tmp_path, INSIDE_THE_TOP.replace("theta: 300", "theta: 120"))
     assert result.status == "solved", result.diagnostics
     assert not [d for d in result.diagnostics if d.code == "E512"]
-
-
-def test_a_start_that_lifts_off_is_left_for_one_that_hangs(monkeypatch: pytest.MonkeyPatch) -> None:
-    """The policy, with the attempts stood in for: from the first start a
-    contact would have to pull (E512, as a bird feeder on two S-hooks once
-    settled, its upper hook inside the top of the ceiling hook's ring); the
-    next start hangs at rest. As for a fall: the retry is the answer, and
-    N504 at the connection says the first start lifted off there. A retry
-    whose loops are open holds nothing (E506) and is not taken."""
-    import dataclasses
-
-    import fabhal.solve as solver
-
-    real = api.solve(REPO / "programs" / "mug_hanger.fhl").solution
-    assert real is not None and real.status == "solved"
-    lift = solver.LiftOff(joint=0, holder="rod.rod", held="chain.s[1].hook2", part="chain.s[1]", pull=0.1)
-    seeds: list[int] = []
-
-    def attempt(model, options, loop_start):  # type: ignore[no-untyped-def]
-        seeds.append(options.seed)
-        if options.seed == 0:
-            return dataclasses.replace(real, status="falls_apart", falls=(lift,))
-        if options.seed == 1:  # nothing falls, but a loop is open: not holding
-            return dataclasses.replace(real, status="not_at_rest", residual=1.0)
-        return real
-
-    monkeypatch.setattr(solver, "_solve_once", attempt)
-    result = solver.solve(real.model, solver.SolveOptions(seed=0))
-    assert seeds == [0, 1, 2] and result.status == "solved"
-    (note,) = [d for d in result.diagnostics if d.code == "N504"]
-    assert "`chain.s[1]` lifted off its contact" in note.message and "seed 2" in note.message

@@ -115,33 +115,50 @@ def test_the_same_seed_gives_the_same_answer() -> None:
     np.testing.assert_array_equal(first.x, second.x)
 
 
-def test_a_fall_from_the_first_start_is_retried_from_the_next_seeds(monkeypatch) -> None:  # type: ignore[no-untyped-def]
-    """The policy of fabhal.solve.solve, with the attempts stubbed: seed 0 falls,
-    seed 1 holds but is not at rest, seed 2 holds at rest -> every retry is made
-    and the seed-2 result is the answer (`_rank`: at rest first), with an N504
-    note at the failing connection."""
+@pytest.mark.parametrize(
+    ("first", "told", "second"),
+    [
+        ("fall", "slid off", {"status": "not_at_rest", "equilibrium": 0.05}),
+        # a contact that would pull (E512); a retry whose loop is open holds nothing (E506)
+        ("lift", "lifted off its contact", {"status": "not_at_rest", "residual": 1.0}),
+    ],
+)
+def test_a_fall_from_the_first_start_is_retried_from_the_next_seeds(  # type: ignore[no-untyped-def]
+    monkeypatch, first: str, told: str, second: dict[str, object]
+) -> None:
+    """The policy of fabhal.solve.solve, with the attempts stubbed: seed 0 falls
+    (slides off an end, or lifts off a contact that would have to pull), seed
+    1 holds but is not at rest (or has a loop open), seed 2 holds at rest ->
+    every retry is made and the seed-2 result is the answer (`_rank`: at rest
+    first), with an N504 note at the failing connection saying what failed."""
     import dataclasses
 
     import fabhal.solve as solver
 
     real = api.solve(REPO / "programs" / "mug_hanger.fhl").solution
     assert real is not None and not real.falls
-    fall = solver.Fall(joint=0, dof=0, end="max", part="chain.s[1]")
+    falls = {
+        "fall": solver.Fall(joint=0, dof=0, end="max", part="chain.s[1]"),
+        "lift": solver.LiftOff(
+            joint=0, holder="rod.rod", held="chain.s[1].hook2", part="chain.s[1]", pull=0.1
+        ),
+    }
     seeds: list[int] = []
 
     def attempt(model, options, loop_start):  # type: ignore[no-untyped-def]
         seeds.append(options.seed)
         if options.seed == 0:
-            return dataclasses.replace(real, status="falls_apart", falls=(fall,))
+            return dataclasses.replace(real, status="falls_apart", falls=(falls[first],))
         if options.seed == 1:
-            return dataclasses.replace(real, status="not_at_rest", equilibrium=0.05)
+            return dataclasses.replace(real, **second)
         return real
 
     monkeypatch.setattr(solver, "_solve_once", attempt)
     result = solver.solve(real.model, solver.SolveOptions(seed=0))
     assert seeds == [0, 1, 2] and result.status == "solved"
     (note,) = [d for d in result.diagnostics if d.code == "N504"]
-    assert "seed 2" in note.message and note.span == real.model.joints[0].connection.span
+    assert f"`chain.s[1]` {told}" in note.message and "seed 2" in note.message
+    assert note.span == real.model.joints[0].connection.span
 
 
 def test_a_design_that_falls_from_every_start_falls_apart(monkeypatch) -> None:  # type: ignore[no-untyped-def]
