@@ -84,16 +84,23 @@ class Standing:
 @dataclass(frozen=True)
 class TurnLimit:
     """The flex angles of both sides of one connection (two loops, each turned
-    about the line of their contact) turn the parts about that one line, so
-    their turns add: together they turn until a wire jams (`jam`, degrees from
-    square), not each alone (two S-hooks once turned 23 degrees each where
-    they jam at 44 in all). Kept as |(x[first] - 90) + sign (x[second] - 90)|
-    <= jam: two linear inequalities for the solver (fabhal/solve/spacing.py)."""
+    about the line of their contact) turn the parts about that one line: only
+    their sum u = (x[first] - 90) + sign (x[second] - 90) moves anything, and
+    the two together turn until a wire jams (|u| <= `jam`, degrees), not each
+    alone (two S-hooks once turned 23 and 22 degrees where they jam at 44 in
+    all). Without loops the pair is `folded`: `first` carries the whole turn
+    over the range the jam leaves it, a bound, and `second` stays put (square,
+    or where the program sets it): one unknown and no row less per pair (a
+    chain of 100 S-hooks: 10 s with rows, 1.8 s folded). With loops both turn
+    and two linear rows keep the sum (fabhal/solve/spacing.py): folded, the
+    settles that balance on knife edges (the caddy, the reading nook) took
+    other paths and one of them ended not at rest (bench/README.md item 52)."""
 
-    first: int  # DoF index of one side's flex angle
-    second: int  # the other side's
+    first: int  # DoF index of one side's flex angle (folded: the one that turns)
+    second: int  # the other side's (folded: it stays put)
     sign: float  # +1 where both turn the parts the same way relative to each other
     jam: float
+    folded: bool = False
 
 
 @dataclass(frozen=True)
@@ -762,15 +769,22 @@ def _assemble(program: FlatProgram, parts: tuple[PartInstance, ...]) -> Model:
         _jam_yaw(joint, variables)
     written = _written_settings(joints, variables)
     tree, closures, unplaced = _spanning_tree(parts, joints)
-    pinned = written | frozenset(
-        i
-        for joint in joints
-        for i in (
-            *_resting_surface(joint),
-            *_fixed_rod_line(joint, parts),
-            *_threaded_centre(joint),
-            *_unturning_yaws(joint),
+    together = tuple(
+        turn for joint in joints if (turn := _turning_together(joint, variables, written, not closures))
+    )
+    pinned = (
+        written
+        | frozenset(
+            i
+            for joint in joints
+            for i in (
+                *_resting_surface(joint),
+                *_fixed_rod_line(joint, parts),
+                *_threaded_centre(joint),
+                *_unturning_yaws(joint),
+            )
         )
+        | frozenset(turn.second for turn in together if turn.folded)
     )
     standing = tuple(
         s for joint in joints if not joint.connection.fixed and (s := _standing(joint)) is not None
@@ -786,7 +800,7 @@ def _assemble(program: FlatProgram, parts: tuple[PartInstance, ...]) -> Model:
         pinned,
         standing,
         written=written,
-        turn_limits=tuple(limit for joint in joints if (limit := _turning_together(joint, written))),
+        turn_limits=together,
     )
 
 
@@ -929,22 +943,47 @@ def _jam_yaw(joint: Joint, variables: list[DofVariable]) -> None:
             )
 
 
-def _turning_together(joint: Joint, written: frozenset[int]) -> TurnLimit | None:
-    """Where both sides of a connection flex (`_yaws`), the limit on their
-    turns together. Each turn is an Rz at the end of its side's connector
-    frame, and the alignment maps a's z to sigma times b's (sigma = +-1, with
-    no shift across the line), so b hangs from a through Rz(a's turn) offset
-    Rz(-b's turn) = Rz(a's turn - sigma b's turn) offset: the turns add where
-    the alignment flips z (two hooks face to face). None where one side does
-    not flex, the jam is 0 (both pinned square: `_unturning_yaws`), the
-    program sets both, or the alignment does not keep the line."""
+def _turning_together(
+    joint: Joint, variables: list[DofVariable], written: frozenset[int], fold: bool
+) -> TurnLimit | None:
+    """Where both sides of a connection flex (`_yaws`), their turns bounded
+    together (`TurnLimit`; `fold`: one carries both). Each turn is an Rz at
+    the end of its side's connector frame, and the alignment maps a's z to
+    sigma times b's (sigma = +-1, with no shift: it is a rotation), so b hangs
+    from a through Rz(a's turn) offset Rz(-b's turn) = Rz(a's turn - sigma
+    b's turn) offset: the turns add where the alignment flips z (two hooks
+    face to face). None where one side does not flex, the jam is 0 (both
+    pinned square: `_unturning_yaws`), the program sets both, or the
+    alignment does not keep the line."""
     yaws = _yaws(joint)
     jam = yaw_jam_between(joint.a.primitive, joint.b.primitive)
     sigma = float(joint.offset[2, 2])
-    keeps_line = abs(abs(sigma) - 1.0) < 1e-9 and np.allclose(joint.offset[:2, 3], 0.0)
-    if len(yaws) != 2 or not jam or set(yaws) <= written or not keeps_line:
+    if len(yaws) != 2 or not jam or set(yaws) <= written or abs(abs(sigma) - 1.0) > 1e-9:
         return None
-    return TurnLimit(yaws[0], yaws[1], -sigma, jam)
+    first, second = yaws[::-1] if yaws[0] in written else yaws  # a written one stays put
+    if fold:
+        _carry_both(variables, first, second, -sigma, jam, second in written)
+    return TurnLimit(first, second, -sigma, jam, fold)
+
+
+def _carry_both(
+    variables: list[DofVariable], first: int, second: int, sign: float, jam: float, second_written: bool
+) -> None:
+    """Fold a pair of flex angles into `first`: its range becomes the turns
+    the pair can make, |u| <= jam with `second` where it stays. With `second`
+    square that is +-jam: each side's own range (at most 45 degrees, or its
+    jam) leaves the two together at least the jam. With `second` written,
+    `first` keeps its own range too, and its ends are real stops only where
+    the jam, or its own jam, sets them (not the model's 45 degrees)."""
+    dof = variables[first].dof
+    square = (dof.low + dof.high) / 2.0  # both ranges are symmetric about square (90)
+    shift = sign * (variables[second].dof.default - square)
+    low, high = square - jam - shift, square + jam - shift
+    real = True
+    if second_written:
+        real = dof.jammed or (dof.low <= low and high <= dof.high)
+        low, high = max(low, dof.low), min(high, dof.high)
+    variables[first] = replace(variables[first], dof=replace(dof, low=low, high=high, jammed=real))
 
 
 def _unturning_yaws(joint: Joint) -> tuple[int, ...]:

@@ -14,9 +14,7 @@ feasible-point active-set method covers all of them:
   even when the iteration limit or the time limit stops it early
   (generalised reduced gradient);
 - a bound or a spacing inequality joins the active set when a step reaches
-  it, and leaves when its multiplier says the optimum lies inside; a step
-  crosses the rows marked `Linear.bent` (turn limits, which share no
-  variable) and is projected back onto them, as onto the bounds;
+  it, and leaves when its multiplier says the optimum lies inside;
 - the step minimises a quadratic model on the tangent space of the active
   constraints: Gauss-Newton with Levenberg-Marquardt damping and NL2SOL's
   secant correction for least squares (`least_squares_objective`), damped
@@ -50,7 +48,6 @@ Array = np.ndarray
 Objective = Callable[[Array], tuple[float, Array, Array | None]]
 Equality = Callable[[Array], tuple[Array, Array]]  # c(x), dc/dx
 
-BEND_ROUNDS = 3  # of projecting a trial back onto crossed rows (`_Scaled.bend`)
 ARMIJO = 1e-4  # sufficient decrease, as a fraction of the model's first-order decrease
 RESTORE_ITERATIONS = 12
 RESTORED = 1e-10  # largest |c| accepted as on the constraints (the caller's units: mm)
@@ -85,9 +82,6 @@ class Linear:
 
     matrix: Array  # (m, n)
     offset: Array  # (m,)
-    # (m,) rows a step may cross and be projected back onto, as onto the bounds,
-    # instead of stopping where it reaches them (None: none)
-    bent: Array | None = None
 
 
 @dataclass(frozen=True)
@@ -168,37 +162,6 @@ class _Scaled:
 
     def on_bounds(self, u: Array) -> tuple[Array, Array]:
         return u <= self.low + ACTIVE, u >= self.high - ACTIVE
-
-    @cached_property
-    def bent_rows(self) -> Array:
-        rows = len(self.linear.offset) if self.linear is not None else 0
-        if self.linear is None or self.linear.bent is None:
-            return np.zeros(rows, dtype=bool)
-        return np.asarray(self.linear.bent, dtype=bool)
-
-    def bend(self, u: Array) -> Array:
-        """u projected back onto the crossed rows that a step may cross
-        (`Linear.bent`) and the bounds: each violated row moved onto along its
-        own direction, a few rounds (rows that share no variable, as the flex
-        angles of separate connections, need one)."""
-        if not self.bent_rows.any():
-            return u
-        g_rows, h = self.linear_rows()
-        rows, offsets = g_rows[self.bent_rows], h[self.bent_rows]
-        for _ in range(BEND_ROUNDS):
-            values = rows @ u + offsets
-            crossed = np.flatnonzero(values < 0.0)
-            if not len(crossed):
-                break
-            for k in crossed:
-                row = rows[k]  # moving along +row raises the value back to 0
-                movable = ((u > self.low) | (row > 0.0)) & ((u < self.high) | (row < 0.0))
-                direction = np.where(movable, row, 0.0)
-                norm = float(direction @ direction)
-                if norm > 0.0:
-                    u = u - (float(row @ u + offsets[k]) / norm) * direction
-            u = u.clip(self.low, self.high)
-        return u
 
 
 def minimize(
@@ -444,7 +407,7 @@ class _Iteration:
         first = alpha = min(1.0, _longest(problem, u, step), min(self.max_step, self.radius) / length)
         g_rows, h = problem.linear_rows()
         while alpha > 1e-10:
-            clipped = problem.bend((u + alpha * step).clip(problem.low, problem.high))
+            clipped = (u + alpha * step).clip(problem.low, problem.high)
             moved = clipped - u
             slope = float(gradient @ moved)
             trial, c, a, feasible = (
@@ -694,13 +657,12 @@ def _solve_spd_lapack(matrix: Array, rhs: Array) -> Array | None:
 
 
 def _longest(problem: _Scaled, u: Array, step: Array) -> float:
-    """The largest alpha keeping u + alpha step inside the inactive spacing
-    (the rows a step may cross, `Linear.bent`, aside)."""
+    """The largest alpha keeping u + alpha step inside the inactive spacing."""
     alpha = np.inf
     g_rows, h = problem.linear_rows()
     if len(h):
         values, rates = g_rows @ u + h, g_rows @ step
-        inactive = (values > ACTIVE) & (rates < 0) & ~problem.bent_rows
+        inactive = (values > ACTIVE) & (rates < 0)
         if np.any(inactive):
             alpha = min(alpha, float(np.min(-values[inactive] / rates[inactive])))
     return max(alpha, 0.0)

@@ -91,31 +91,6 @@ def test_a_linear_inequality_on_the_circle() -> None:
     assert np.allclose(result.x, [y + 0.5, y], atol=1e-8)
 
 
-def test_a_row_a_step_may_cross_is_bent_onto_like_a_bound() -> None:
-    """Several bowls (x_i - 3)^2, each pair (x_2k, x_2k+1) limited to a sum of
-    at most 2 (two flex angles' turns together within their jam): by hand the
-    optimum of each pair is its projection onto x + y = 2, (1, 1). Stopping
-    where a step reaches a row, the search adds one row per iteration; bent
-    onto the rows it crosses, as onto bounds, it lands on all at once: the
-    same optimum (1e-8), in fewer iterations."""
-    pairs = 6
-
-    def bowls(x: np.ndarray) -> tuple[float, np.ndarray, None]:
-        return float(((x - 3.0) ** 2).sum()), 2.0 * (x - 3.0), None
-
-    matrix = np.zeros((pairs, 2 * pairs))
-    for k in range(pairs):
-        matrix[k, 2 * k : 2 * k + 2] = -1.0  # 2 - x - y >= 0
-    offset = np.full(pairs, 2.0)
-    bounds = (np.full(2 * pairs, -10.0), np.full(2 * pairs, 10.0))
-    start = np.linspace(-1.0, 0.9, 2 * pairs)  # each pair's sum below 2: inside
-    stopped = minimize(bowls, start, *bounds, linear=Linear(matrix, offset), gtol=1e-10)
-    bent = minimize(bowls, start, *bounds, linear=Linear(matrix, offset, np.ones(pairs, bool)), gtol=1e-10)
-    for result in (stopped, bent):
-        assert np.allclose(result.x, 1.0, atol=1e-8)
-    assert bent.iterations < stopped.iterations
-
-
 def test_a_start_far_from_the_constraints_is_brought_onto_them() -> None:
     result = minimize(x_plus_y, np.array([5.0, 3.0]), *FREE, equality=on_circle, gtol=1e-10)
     assert result.feasible

@@ -11,7 +11,8 @@ where s keeps the order they start in (the paper's |t_i - t_j| L >= (w_i + w_j)/
 made smooth). Linear in x, so its Jacobian is constant.
 
 Turning together (`TurnLimit`, fabhal/model.py): where both sides of a
-connection flex, |(x_i - 90) + sign (x_j - 90)| <= jam, as two rows.
+connection flex in a model with loops, |(x_i - 90) + sign (x_j - 90)| <= jam,
+as two rows (without loops the pair is folded into one DoF and a bound).
 """
 
 from __future__ import annotations
@@ -151,8 +152,10 @@ SQUARE_DEG = 90.0  # a flex angle's value where its loop is square to what it go
 
 
 def turn_rows(limits: tuple[TurnLimit, ...], n: int) -> tuple[Array, Array]:
-    """(2k, n) G and (2k,) h with G x + h >= 0 exactly where every limit holds:
-    jam - u >= 0 and jam + u >= 0, u = (x_i - 90) + sign (x_j - 90)."""
+    """(2k, n) G and (2k,) h with G x + h >= 0 exactly where every limit not
+    folded into one DoF (a bound) holds: jam - u >= 0 and jam + u >= 0,
+    u = (x_i - 90) + sign (x_j - 90)."""
+    limits = tuple(limit for limit in limits if not limit.folded)
     matrix, offset = np.zeros((2 * len(limits), n)), np.zeros(2 * len(limits))
     for k, limit in enumerate(limits):
         for row, way in ((2 * k, -1.0), (2 * k + 1, 1.0)):
@@ -165,6 +168,7 @@ def turn_rows(limits: tuple[TurnLimit, ...], n: int) -> tuple[Array, Array]:
 def stopped_turns(limits: tuple[TurnLimit, ...], x: Array) -> set[int]:
     """The flex angles of the limits x rests on (within 1e-6 degrees): stopped
     together where the wire jams, which carries what presses on it."""
+    limits = tuple(limit for limit in limits if not limit.folded)  # folded: at its bound
     matrix, offset = turn_rows(limits, len(x))
     on = np.any((matrix @ x + offset <= 1e-6).reshape(-1, 2), axis=1).tolist()
     stopped = [limit for limit, jammed in zip(limits, on, strict=True) if jammed]

@@ -135,7 +135,7 @@ class Problem:
         return turn_rows(self.model.turn_limits, len(self.x_base))
 
     def has_limits(self) -> bool:
-        return bool(self.spacing or self.model.turn_limits)
+        return bool(self.spacing) or len(self._turns[1]) > 0
 
     def equality(self) -> Callable[[Array], tuple[Array, Array]] | None:
         """Loop closure as the optimiser's equality constraints (None without loops)."""
@@ -148,13 +148,7 @@ class Problem:
         (None without either)."""
         if not self.has_limits():
             return None
-        # without loops a step crosses a turn limit and is bent back onto it (as onto a
-        # bound: the limits share no variable); stopping at each, a chain of 100 S-hooks
-        # took 600 iterations to settle. With loops the bent trial would be projected onto
-        # them with the bent DoFs held, as clipped ones are: it stops at the limit instead
-        rows = np.arange(len(self.limit_values(np.zeros(len(self.free)))))
-        bent = (rows >= len(self.spacing)) & (not self.model.closures)
-        return Linear(self.limit_jacobian(), self.limit_values(np.zeros(len(self.free))), bent)
+        return Linear(self.limit_jacobian(), self.limit_values(np.zeros(len(self.free))))
 
     @cached_property
     def scale(self) -> Array:

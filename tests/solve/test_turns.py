@@ -1,6 +1,7 @@
 """Two loops hooked into each other (S-hook on S-hook) each turn about the one
 line of their contact: their turns add, and together they turn only until a
-wire jams (fabhal/model.py `TurnLimit`)."""
+wire jams (fabhal/model.py `TurnLimit`): folded into one DoF without loops,
+two linear rows with them."""
 
 from __future__ import annotations
 
@@ -10,7 +11,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from fabhal import api
 from fabhal.model import Model
+from tests.conftest import REPO
 from tests.solve.test_physics import solve_text
 
 # the upper S-hook's own turn on the rod is set square, so every turn of the lower one
@@ -55,22 +58,40 @@ def test_two_s_hooks_turn_on_each_other_only_until_the_wire_jams(tmp_path: Path)
     than the wires allow. Each hook's flex angle alone has the model's range,
     45 degrees either way (its jam, 62.84, lies beyond), so before the turns
     were bounded together the two hooks turned 45 + 45 = 90 degrees on each
-    other, a wire through a wire. Now they stop together at the jam: the
-    frames show the lower hook turned at most 62.84 degrees on the upper
-    (0.01 degree: the stop is an inequality the optimiser keeps to 1e-6),
-    and close to it (over 60: the request pulls it onto the stop). Each
-    hook takes a share (neither alone reaches the whole turn) and the hack
-    hangs at rest."""
-    result = solve_text(tmp_path, TWO_S_HOOKS)
-    solution = result.solution
-    assert result.status == "solved", result.diagnostics
-    model = solution.model
+    other, a wire through a wire. Now they stop together at the jam. Step 1
+    (gravity off), which the request pulls onto the stop, turns the lower
+    hook by the jam on the upper, read off the frames (0.01 degree: a bound
+    the optimiser keeps exactly); without loops the pair is folded into one
+    DoF, the other side stays square (90 exactly). Hanging, the hack comes to
+    rest within the jam."""
+    placed = solve_text(tmp_path, TWO_S_HOOKS, gravity=False).solution
+    model = placed.model
     (limit,) = model.turn_limits
-    assert limit.jam == pytest.approx(JAM_DEG, abs=1e-9)
-    turned = turned_on_each_other(model, solution.x)
-    assert 60.0 < turned <= JAM_DEG + 0.01
-    shares = [abs(solution.x[i] - 90.0) for i in (limit.first, limit.second)]
-    assert max(shares) < turned - 1.0
+    assert limit.jam == pytest.approx(JAM_DEG, abs=1e-9) and limit.folded
+    assert turned_on_each_other(model, placed.x) == pytest.approx(JAM_DEG, abs=0.01)
+    assert placed.x[limit.second] == 90.0 and limit.second in model.pinned
+    hanging = solve_text(tmp_path, TWO_S_HOOKS)
+    assert hanging.status == "solved", hanging.diagnostics
+    assert turned_on_each_other(model, hanging.solution.x) <= JAM_DEG + 0.01
+
+
+def test_in_a_loop_both_turn_and_stay_within_the_jam_together() -> None:
+    """The bird feeder hangs by a loop (two wall hooks, two S-hooks, the
+    hanger): there both flex angles of each S-hook-on-eye-hook connection
+    turn, and two linear rows keep their sum within the jam. The eye hook's
+    wire is 5 mm across its radius, the S-hook 9.6 mm inside: acos(sqrt(5 /
+    9.6)) = 43.81 degrees. Each alone, the right pair once turned 23.4 + 21.5
+    = 44.9; now within 43.81 (1e-6: the rows are kept to the optimiser's
+    activity tolerance) and at rest."""
+    result = api.solve(REPO / "programs" / "bird_feeder.fhl")
+    assert result.status == "solved"
+    solution = result.solution
+    limits = solution.model.turn_limits
+    assert len(limits) == 2 and not any(limit.folded for limit in limits)
+    for limit in limits:
+        assert limit.jam == pytest.approx(math.degrees(math.acos(math.sqrt(5.0 / 9.6))), abs=1e-9)
+        together = solution.x[limit.first] - 90.0 + limit.sign * (solution.x[limit.second] - 90.0)
+        assert abs(together) <= limit.jam + 1e-6
 
 
 def test_the_two_turns_add_as_the_limit_says(tmp_path: Path) -> None:
