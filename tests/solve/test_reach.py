@@ -183,8 +183,11 @@ def test_a_chain_too_long_says_how_far_below_it_hangs(tmp_path: Path) -> None:
         ).groups(),
     )
     solution = result.solution
-    position_error, _ = solution.target_errors()
+    position_error, rotation_error = solution.target_errors()
     assert abs(drop - position_error) <= 1.0
+    # free to turn about the vertical, it is turned to the requested heading (once it
+    # stayed 93 degrees off: the turn came out 3e-8 J higher and was refused)
+    assert rotation_error < 1.0
     model = solution.model
     (joint,) = [
         j for j in model.joints if model.parts[j.b.part].environment or model.parts[j.a.part].environment
