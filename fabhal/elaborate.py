@@ -16,7 +16,7 @@ from fabhal.diagnostics import Diagnostic, FabhalError, error, warning
 from fabhal.evaluate import Value, evaluate, number
 from fabhal.library import BARE_PRIMITIVES, Library, PartSpec, bare_primitive
 from fabhal.load import LoadedProgram
-from fabhal.primitives import turning_to_the_jam, yaw_jam_between
+from fabhal.primitives import jam_of, turning_to_the_jam
 from fabhal.source import Span
 from fabhal.syntax import ast
 from fabhal.syntax.format import format_ref
@@ -266,9 +266,8 @@ class _Elaborator:
         side, other_side = sides if labels[0] == "a" else sides[::-1]
         primitive, other = (self.part(end.part).spec.primitive(end.primitive) for end in (side, other_side))
         assert primitive is not None and other is not None  # the endpoints were resolved
-        # a flex angle's range ends where its wire jams on the other side (as the model's)
-        jam = yaw_jam_between(primitive, other)
-        dofs = {d.name: turning_to_the_jam(d, primitive.variant, jam) for d in primitive.dofs}
+        # a flex angle's or a rod's tilt's range ends where a wire jams (as the model's)
+        dofs = {d.name: turning_to_the_jam(d, jam_of(d, primitive, other)) for d in primitive.dofs}
         if written.dof not in dofs:
             suggestion = did_you_mean(written.dof, dofs)
             listed = ", ".join(f"`{name}`" for name in dofs) or "none"

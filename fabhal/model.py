@@ -31,6 +31,7 @@ from fabhal.primitives import (
     Primitive,
     alignment_offset,
     is_flex_angle,
+    jam_of,
     turning_to_the_jam,
     yaw_jam_between,
 )
@@ -766,7 +767,7 @@ def _assemble(program: FlatProgram, parts: tuple[PartInstance, ...]) -> Model:
     for joint in joints:
         _keep_on_floor(joint, variables)
         _keep_threaded(joint, variables)
-        _jam_yaw(joint, variables)
+        _jam(joint, variables)
     written = _written_settings(joints, variables)
     tree, closures, unplaced = _spanning_tree(parts, joints)
     together = tuple(
@@ -930,17 +931,17 @@ def _yaws(joint: Joint) -> tuple[int, ...]:
     )
 
 
-def _jam_yaw(joint: Joint, variables: list[DofVariable]) -> None:
-    """Each flex angle turns only until its wire jams (`turning_to_the_jam`):
-    before, a clip light's turnbuckle hook turned 44 degrees on its ring's 6.6
-    mm wire, where it jams at 28, its wire through the ring's. Where both sides
-    flex, each is limited so, and their sum too (`_turning_together`)."""
-    jam = yaw_jam_between(joint.a.primitive, joint.b.primitive)
-    for side in (joint.a, joint.b):
+def _jam(joint: Joint, variables: list[DofVariable]) -> None:
+    """Each flex angle, and each rod's tilt of the loop on it, turns only until
+    a wire jams (`primitives.jam_of`): before, a clip light's turnbuckle hook
+    turned 44 degrees on its ring's 6.6 mm wire, where it jams at 28, its wire
+    through the ring's. Where both sides flex, each is limited so, and their
+    sum too (`_turning_together`)."""
+    for side, other in ((joint.a, joint.b), (joint.b, joint.a)):
         for i in side.dof_indices:
-            variables[i] = replace(
-                variables[i], dof=turning_to_the_jam(variables[i].dof, side.primitive.variant, jam)
-            )
+            dof = variables[i].dof
+            jammed = turning_to_the_jam(dof, jam_of(dof, side.primitive, other.primitive))
+            variables[i] = replace(variables[i], dof=jammed)
 
 
 def _turning_together(

@@ -219,3 +219,36 @@ def test_a_flex_angle_turns_only_until_its_wire_jams() -> None:
     assert (link.low, link.high) == (45.0, 135.0) and not link.ends_hold
     snug, _ = names["s1.hook2.phi"]
     assert snug in nook.pinned
+
+
+EYE_RING_ON_A_ROD = """\
+environment rod = Rod(length: 300, radius: {radius}) at (0, 0, 300) rot (90, 0, 90)
+e = HookEyeLeftS()
+connect e.ring -- rod{setting}
+target e at (0, 0, 250)
+"""
+
+
+def test_a_rods_tilt_of_a_ring_ends_where_the_wire_jams(tmp_path: Path) -> None:
+    """The rod's `phi` tilts the eye ring hanging on it along the rod. On an
+    8 mm rod the ring (10.32 mm inside) jams at acos(8 / 10.32) = 39.18
+    degrees (primitives.tilt_jam_deg): the range narrows to 90 +- 39.18, a
+    real stop (its ends hold, no E509), and a `set` past it is E315. On the
+    closet's 6.35 mm rods the jam, acos(6.35 / 10.32) = 52.0, lies beyond
+    the model's 45: the range stays [45, 135] and its ends stay the model's."""
+    import math
+
+    program = tmp_path / "ring.fhl"
+    program.write_text(EYE_RING_ON_A_ROD.format(radius=8, setting=""))
+    model = api.check(program).model
+    assert model is not None
+    (tilt,) = [v.dof for v in model.variables if v.name == "rod.rod.phi"]
+    jam = math.degrees(math.acos(8.0 / 10.32))
+    assert jam == pytest.approx(39.18, abs=0.01)
+    assert (tilt.low, tilt.high) == pytest.approx((90.0 - jam, 90.0 + jam), abs=1e-9)
+    assert tilt.jammed and tilt.ends_hold
+    program.write_text(EYE_RING_ON_A_ROD.format(radius=8, setting=" set (rod.phi: 40)"))
+    assert [d.code for d in api.check(program).diagnostics if d.is_error] == ["E315"]
+    closet = model_of(REPO / "programs" / "closet_basket.fhl")
+    (rod,) = [v.dof for v in closet.variables if v.name == "rods.rod1.phi"]
+    assert (rod.low, rod.high) == (45.0, 135.0) and not rod.ends_hold

@@ -186,6 +186,39 @@ def test_a_loop_turns_on_a_round_wire_until_its_wire_jams() -> None:
     assert outside(jam + 0.05) > 1e-6
 
 
+def test_a_ring_tilts_along_its_rod_until_its_wire_jams() -> None:
+    """An eye ring (arc radius 14.82, wire 4.5: 10.32 mm inside) hanging on
+    an 8 mm rod, tilted along it by b: the rod's section in the ring's plane
+    is an ellipse of half-axes r = 8 across the rod and r / cos b along the
+    line of the contact, which ends at the contact, inside the ring's inner
+    circle. It fits while r / cos b <= 10.32: the jam is acos(8 / 10.32) =
+    39.18 degrees. Sampled as for the turn about the contact line: 20,000
+    points on the ellipse, none outside the circle 0.05 degrees before the
+    jam, some by more than 1e-6 mm 0.05 degrees past it. A snug ring, a
+    centre-line ring, or a rod that is not one: None."""
+    from fabhal.primitives import tilt_jam_deg
+
+    ring = _ring(14.82, 4.5)
+    rod = make_primitive("rod", "rod", {"radius": 8.0, "length": 300.0}, {})
+    jam = tilt_jam_deg(ring, rod)
+    assert jam is not None and jam == pytest.approx(39.18, abs=0.01)
+    rho, r = 10.32, 8.0
+    t = np.linspace(0.0, 2.0 * np.pi, 20_000)
+
+    def outside(tilt_deg: float) -> float:
+        along = r / np.cos(np.radians(tilt_deg))
+        x, y = r * np.sin(t), (along - rho) - along * np.cos(t)
+        return float((np.hypot(x, y) - rho).max())
+
+    assert outside(jam - 0.05) <= 1e-9
+    assert outside(jam + 0.05) > 1e-6
+    thick = make_primitive("rod", "rod", {"radius": 10.5, "length": 300.0}, {})
+    centre_line = make_primitive("ring", "hole", ring.params, {"centerline": True})
+    assert tilt_jam_deg(ring, thick) is None
+    assert tilt_jam_deg(centre_line, rod) is None
+    assert tilt_jam_deg(ring, ring) is None
+
+
 def test_a_snug_loop_cannot_turn_and_only_round_things_jam_it() -> None:
     """A hook whose inside radius is no more than the rod's (a wire hook bent
     open round it, N416) turns 0 degrees; on an edge (square in section) or
