@@ -158,6 +158,16 @@ def _ring(arc_radius: float, thickness: float) -> Primitive:
     return make_primitive("ring", "hole", {"arc_radius": arc_radius, "thickness": thickness}, {})
 
 
+def poking_out(across: float, along: float, rho: float) -> float:
+    """How far (mm) an ellipse of half-axes `across` and `along` (the second
+    along the line of the contact), touching a circle of radius rho from
+    inside at the contact, reaches outside it (<= 0: within), over 20,000
+    points on the ellipse."""
+    t = np.linspace(0.0, 2.0 * np.pi, 20_000)
+    x, y = across * np.sin(t), (along - rho) - along * np.cos(t)
+    return float((np.hypot(x, y) - rho).max())
+
+
 def test_a_loop_turns_on_a_round_wire_until_its_wire_jams() -> None:
     """A RingLink's hook (arc radius 18, wire 4: 14 mm inside) on an
     ObstacleRingL's 3 mm wire jams at cos^2 b = 3 / 14: b = 62.42 degrees.
@@ -175,15 +185,9 @@ def test_a_loop_turns_on_a_round_wire_until_its_wire_jams() -> None:
     jam = yaw_jam_deg(link, wire)
     assert jam is not None and jam == pytest.approx(62.42, abs=0.01)
     rho, r = 14.0, 3.0
-    t = np.linspace(0.0, 2.0 * np.pi, 20_000)
-
-    def outside(turn_deg: float) -> float:
-        along = r / np.cos(np.radians(turn_deg))
-        x, y = along * np.sin(t), (r - rho) - r * np.cos(t)
-        return float((np.hypot(x, y) - rho).max())
-
-    assert outside(jam - 0.05) <= 1e-9
-    assert outside(jam + 0.05) > 1e-6
+    for turn, inside in ((jam - 0.05, True), (jam + 0.05, False)):
+        reach = poking_out(r / np.cos(np.radians(turn)), r, rho)
+        assert reach <= 1e-9 if inside else reach > 1e-6
 
 
 def test_a_ring_tilts_along_its_rod_until_its_wire_jams() -> None:
@@ -203,15 +207,9 @@ def test_a_ring_tilts_along_its_rod_until_its_wire_jams() -> None:
     jam = tilt_jam_deg(ring, rod)
     assert jam is not None and jam == pytest.approx(39.18, abs=0.01)
     rho, r = 10.32, 8.0
-    t = np.linspace(0.0, 2.0 * np.pi, 20_000)
-
-    def outside(tilt_deg: float) -> float:
-        along = r / np.cos(np.radians(tilt_deg))
-        x, y = r * np.sin(t), (along - rho) - along * np.cos(t)
-        return float((np.hypot(x, y) - rho).max())
-
-    assert outside(jam - 0.05) <= 1e-9
-    assert outside(jam + 0.05) > 1e-6
+    for tilt, inside in ((jam - 0.05, True), (jam + 0.05, False)):
+        reach = poking_out(r, r / np.cos(np.radians(tilt)), rho)
+        assert reach <= 1e-9 if inside else reach > 1e-6
     thick = make_primitive("rod", "rod", {"radius": 10.5, "length": 300.0}, {})
     centre_line = make_primitive("ring", "hole", ring.params, {"centerline": True})
     assert tilt_jam_deg(ring, thick) is None
