@@ -140,10 +140,13 @@ def dof_rows(solution: Solution) -> list[dict[str, Any]]:
     """Every degree of freedom of the design: its connection, range, where it
     settled (as a builder would set it) and what decides it: `written` (the
     program sets it: `set (...)`), `set once` (a clip's grip, a `fixed`
-    connection, a place friction holds: the builder's setting, aimed) or
+    connection, a place friction holds: the builder's setting, aimed),
+    `other side` (a loop's turn about the line of its contact where the other
+    side's turn, about the same line, carries both: it stays square) or
     `settles` (gravity moves it); `at_end`: resting on an end of its range."""
     model = solution.model
     settings, resting, lengths = builder_settings(model), set(solution.at_bound), mm_per_unit(model)
+    carried = {turn.second for turn in model.turn_limits if turn.folded} - model.written
     rows = []
     for i, variable in enumerate(model.variables):
         dof = variable.dof
@@ -159,11 +162,20 @@ def dof_rows(solution: Solution) -> list[dict[str, Any]]:
                 "turns_freely": dof.periodic,
                 "value": round(value, 6) + 0.0,
                 "as_built": setting_text(model, i, value, float(lengths[i])),
-                "role": "written" if i in model.written else "set once" if i in settings else "settles",
+                "role": _role(i, model.written, settings, carried),
                 "at_end": i in resting,
             }
         )
     return rows
+
+
+def _role(i: int, written: frozenset[int], settings: set[int], carried: set[int]) -> str:
+    """What decides DoF i (`dof_rows`)."""
+    if i in written:
+        return "written"
+    if i in settings:
+        return "set once"
+    return "other side" if i in carried else "settles"
 
 
 # ---------------------------------------------------------------- for people

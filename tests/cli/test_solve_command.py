@@ -211,3 +211,18 @@ def test_dofs_lists_every_degree_of_freedom_with_its_range_and_setting() -> None
     assert 192 <= bar["value"] * 390 <= 193
     spin = dofs["hanger.rod.spin"]
     assert spin["turns_freely"] and 0 <= spin["value"] < 360 and spin["role"] == "settles"
+
+
+def test_dofs_say_which_loop_turns_for_both_sides() -> None:
+    """The mug hanger's S-hooks hang from each other: each connection's two
+    flex angles turn about the one line of the contact, and without loops one
+    carries the turn for both (model.TurnLimit): the other stays square, 90,
+    and --json says the other side decides it."""
+    data = json.loads(fabhal("solve", "--json", "programs/mug_hanger.fhl").stdout)
+    dofs = {d["name"]: d for d in data["dofs"]}
+    for carried, carrying in (
+        ("chain.s[1].hook1.phi", "chain.s[2].hook2.phi"),
+        ("chain.s[2].hook1.phi", "s3.hook1.phi"),
+    ):
+        assert dofs[carried]["role"] == "other side" and dofs[carried]["value"] == 90.0
+        assert dofs[carrying]["role"] == "settles"
