@@ -284,9 +284,9 @@ class _Elaborator:
                         f"`{_setting_name(written)}` is {value:g}, outside its range "
                         f"{dof.low:g} .. {dof.high:g}",
                         written.value.span,
-                        "t runs along the primitive from 0 to 1; angles are degrees; a flex angle's range "
-                        "ends where the wire jams on what it goes round (`fabhal solve --dofs` shows each "
-                        "DoF's range)",
+                        "t runs along the primitive from 0 to 1; angles are degrees; a flex angle's or a "
+                        "rod's tilt's range ends where a wire jams (`fabhal solve --dofs` shows each DoF's "
+                        "range)",
                     )
                 ]
             )

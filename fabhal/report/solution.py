@@ -146,7 +146,7 @@ def dof_rows(solution: Solution) -> list[dict[str, Any]]:
     `settles` (gravity moves it); `at_end`: resting on an end of its range."""
     model = solution.model
     settings, resting, lengths = builder_settings(model), set(solution.at_bound), mm_per_unit(model)
-    carried = {turn.second for turn in model.turn_limits if turn.folded} - model.written
+    carried = {turn.second for turn in model.turn_limits if turn.folded}
     rows = []
     for i, variable in enumerate(model.variables):
         dof = variable.dof

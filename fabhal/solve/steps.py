@@ -123,7 +123,8 @@ class Problem:
     def limit_values(self, v: Array) -> Array:
         """The linear inequalities' values (>= 0 where kept): spacing, then turning together."""
         matrix, offset = self._turns
-        return np.concatenate([spacing_values(self.spacing, self.full(v)), matrix @ self.full(v) + offset])
+        x = self.full(v)
+        return np.concatenate([spacing_values(self.spacing, x), matrix @ x + offset])
 
     def limit_jacobian(self) -> Array:
         """Their rows over the free DoFs (constant: the inequalities are linear)."""
