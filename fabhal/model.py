@@ -26,6 +26,7 @@ from fabhal.elaborate import Connection, Endpoint, FlatProgram, PartInstance
 from fabhal.kinematics.frames import Array, angular_velocities, frame_matrix, invert
 from fabhal.primitives import (
     FRAME_FORMULAS,
+    SPINNING,
     Dof,
     FrameFormula,
     Primitive,
@@ -781,6 +782,7 @@ def _assemble(program: FlatProgram, parts: tuple[PartInstance, ...]) -> Model:
             for i in (
                 *_resting_surface(joint),
                 *_fixed_rod_line(joint, parts),
+                *_ring_spin_off_hooks(joint),
                 *_threaded_centre(joint),
                 *_unturning_yaws(joint),
             )
@@ -847,6 +849,20 @@ def _fixed_rod_line(joint: Joint, parts: tuple[PartInstance, ...]) -> tuple[int,
         side.dof_indices[2]
         for side in (joint.a, joint.b)
         if parts[side.part].environment and side.primitive.variant == "Rod"
+    )
+
+
+def _ring_spin_off_hooks(joint: Joint) -> tuple[int, ...]:
+    """The spin of a ring that is not on a hook: on a rod or tube it would turn
+    the ring about its wire, the turn the rod's tilt (or the tube's) makes
+    already; the same motion twice would leave the solver a direction that
+    changes nothing."""
+    return tuple(
+        i
+        for side, other in ((joint.a, joint.b), (joint.b, joint.a))
+        if side.primitive.variant in SPINNING and other.primitive.kind != "hook"
+        for i, dof in zip(side.dof_indices, side.primitive.dofs, strict=True)
+        if dof.name == "spin"
     )
 
 

@@ -75,6 +75,10 @@ _THREADABLE = FlagSpec(
 )
 _CENTERLINE = FlagSpec("centerline", "connect on the centre line instead of the surface")
 _FLEX = FlagSpec("flex", "may also twist about the contact normal (one more angle)")
+_SPIN = FlagSpec(
+    "spin",
+    "where a hook holds it, may also turn about its own wire (one more angle): a hoop hung level on hooks",
+)
 
 KINDS: dict[str, KindSpec] = {
     spec.kind: spec
@@ -100,7 +104,7 @@ KINDS: dict[str, KindSpec] = {
             "hole",
             "a closed ring (a hook with a 360-degree arc)",
             (ParamSpec("arc_radius", "mm"), ParamSpec("thickness", "mm")),
-            (_CENTERLINE, _FLEX),
+            (_CENTERLINE, _FLEX, _SPIN),
         ),
         KindSpec(
             "clip",
@@ -153,7 +157,7 @@ def variant_of(kind: str, flags: Mapping[str, bool]) -> str:
     if kind == "hole":
         if flags.get("centerline"):
             return "RingCtl"
-        return "RingFlex" if flags.get("flex") else "Ring"
+        return ("RingFlex" if flags.get("flex") else "Ring") + ("Spin" if flags.get("spin") else "")
     if kind == "tube":
         return "TubeCtl" if flags.get("centerline") else "Tube"
     return kind.capitalize()
@@ -283,6 +287,8 @@ def dofs_of(variant: str, params: Mapping[str, float], flags: Mapping[str, bool]
     """The DoFs a connection creates on a primitive, in storage order."""
     slides_off = flags.get("slide_off", True)
     flex_phi = Dof("phi", 45.0, 135.0, 90.0, lean=True)
+    ring_phi = Dof("phi", 30.0, 150.0, 90.0, lean=True)
+    ring_spin = Dof("spin", -180.0, 180.0, 0.0)
     table: dict[str, Callable[[], tuple[Dof, ...]]] = {
         # spin: the rod turns in what holds it (a handle in a hook); the reference
         # welds the contact to one line of the rod, so a basket pivoted about its
@@ -295,7 +301,13 @@ def dofs_of(variant: str, params: Mapping[str, float], flags: Mapping[str, bool]
         "Hook": lambda: (_hook_theta(params, flags),),
         "HookFlex": lambda: (_hook_theta(params, flags), flex_phi),
         "Ring": lambda: (_spin("theta", 180.0),),
-        "RingFlex": lambda: (_spin("theta", 180.0), Dof("phi", 30.0, 150.0, 90.0, lean=True)),
+        "RingFlex": lambda: (_spin("theta", 180.0), ring_phi),
+        # spin (the reference has no such DoF, and welds the contact to the ring's inner
+        # line): a ring on a hook turns about its own wire, so a hoop hangs level from a
+        # hook that holds its tube from above. Only a hook leaves it free
+        # (`ring_spin_stop_deg`); on a rod or tube the rod's tilt is that turn already
+        "RingSpin": lambda: (_spin("theta", 180.0), ring_spin),
+        "RingFlexSpin": lambda: (_spin("theta", 180.0), ring_phi, ring_spin),
         # stored (phi, theta) as in the reference: phi turns about y, theta about x
         "RingCtl": lambda: (_spin("phi", 0.0), _spin("theta", 180.0)),
         "Clip": lambda: (Dof("t", 0.0, 1.0, 0.5),),
@@ -377,6 +389,28 @@ def _arc_flex(p: Mapping[str, float | Array], x: Array) -> Array:
     return out
 
 
+def _ring_spun(p: Mapping[str, float | Array], x: Array) -> Array:
+    # `_arc` @ T(0, 0, -w) @ Ry(spin) @ T(0, 0, w): the ring turned by its spin about
+    # the centre line of its wire (w below the contact, away from the ring's centre)
+    return _arc(p, x) @ _about_the_wire(p, x[..., -1])
+
+
+def _ring_flex_spun(p: Mapping[str, float | Array], x: Array) -> Array:
+    # `_ring_spun` @ Rz(phi - 90): the flex turns about the line of the spun contact
+    return _arc(p, x) @ _about_the_wire(p, x[..., 2]) @ rot_z(x[..., 1] - 90.0)
+
+
+def _about_the_wire(p: Mapping[str, float | Array], spin: Array) -> Array:
+    w = p["thickness"]
+    gamma = np.radians(spin)
+    c, s = np.cos(gamma), np.sin(gamma)
+    out = np.zeros((*gamma.shape, 4, 4))
+    out[..., 1, 1] = out[..., 3, 3] = 1.0
+    out[..., 0, 0], out[..., 0, 2], out[..., 0, 3] = c, s, w * s
+    out[..., 2, 0], out[..., 2, 2], out[..., 2, 3] = -s, c, w * (c - 1.0)
+    return out
+
+
 def _ring_centerline(p: Mapping[str, float | Array], x: Array) -> Array:
     return rot_y(x[..., 0]) @ rot_x(x[..., 1])
 
@@ -410,6 +444,8 @@ FRAME_FORMULAS: dict[str, FrameFormula] = {
     "HookFlex": _arc_flex,
     "Ring": _arc,
     "RingFlex": _arc_flex,
+    "RingSpin": _ring_spun,
+    "RingFlexSpin": _ring_flex_spun,
     "RingCtl": _ring_centerline,
     "Clip": _clip,
     "Edge": _edge,
@@ -562,8 +598,34 @@ def tilt_jam_deg(loop: Primitive, rod: Primitive) -> float | None:
     return math.degrees(math.acos(r / rho)) if rho > r else None
 
 
-FLEXING = ("HookFlex", "RingFlex")  # the variants whose `phi` turns about the line of the contact
+def ring_spin_stop_deg(ring: Primitive, hook: Primitive) -> float | None:
+    """How far a ring hanging on a hook turns about its own wire (its `spin`)
+    before the far side of the ring meets the hook's wire; None where the ring
+    is too large for its far side ever to reach the hook's arc (a hoop).
+
+    The spin turns the ring in the hook's plane about the ring's wire at the
+    contact. With the wires' centre lines d = w_ring + w_hook apart there, the
+    hook's centre line a circle of radius P whose centre lies P above the
+    hook's, and the ring's far side 2 R from the ring's (its centre line's
+    radius R), turned by b from straight down: the far side lies at squared
+    distance 4 R^2 + (P + d)^2 + 4 R (P + d) cos b from the hook's centre, and
+    meets the hook's wire (at P + d) where cos b = -R / (P + d): past 90
+    degrees always, so a ring can lie flat under a hook only if it is large;
+    an eye ring of R = 10 on a hook of P = 16 (wire radius 2 mm) turns 120 degrees."""
+    if ring.kind != "hole" or hook.kind != "hook":
+        return None
+    big_r = ring.params["arc_radius"]
+    reach = hook.params["arc_radius"] + hook.params["thickness"] + ring.params["thickness"]
+    return math.degrees(math.acos(-big_r / reach)) if big_r < reach else None
+
+
+FLEXING = (
+    "HookFlex",
+    "RingFlex",
+    "RingFlexSpin",
+)  # the variants whose `phi` turns about the line of the contact
 TILTING = ("Rod",)  # the variants whose `phi` tilts what hangs on them along them
+SPINNING = ("RingSpin", "RingFlexSpin")  # the variants whose `spin` turns them about their own wire
 
 
 def is_flex_angle(dof: Dof, variant: str) -> bool:
@@ -575,11 +637,14 @@ def is_flex_angle(dof: Dof, variant: str) -> bool:
 def jam_of(dof: Dof, primitive: Primitive, other: Primitive) -> float | None:
     """Where a wire jams the turn `dof` of `primitive` makes on `other`
     (degrees from square): a flex angle's (`yaw_jam_between`), a rod's tilt
-    of the loop that hangs on it (`tilt_jam_deg`); None for other DoFs."""
+    of the loop that hangs on it (`tilt_jam_deg`), a ring's spin on a hook
+    (`ring_spin_stop_deg`); None for other DoFs."""
     if is_flex_angle(dof, primitive.variant):
         return yaw_jam_between(primitive, other)
     if primitive.variant in TILTING and dof.name == "phi":
         return tilt_jam_deg(other, primitive)
+    if primitive.variant in SPINNING and dof.name == "spin":
+        return ring_spin_stop_deg(primitive, other)
     return None
 
 

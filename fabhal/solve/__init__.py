@@ -11,6 +11,7 @@ from __future__ import annotations
 import time
 from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass, replace
+from functools import partial
 
 import numpy as np
 
@@ -33,6 +34,7 @@ from fabhal.solve.contacts import (
     contacts_at,
     crossings,
     passing_through,
+    penetration,
     with_contacts,
 )
 from fabhal.solve.energy import Energy
@@ -45,6 +47,7 @@ from fabhal.solve.forces import (
     slide_dofs,
     weight_newtons,
 )
+from fabhal.solve.hanging import hanging_start
 from fabhal.solve.spacing import Spacing, spacing_constraints, spacing_values, spread, stopped_turns
 from fabhal.solve.steps import (
     FRICTION,
@@ -79,6 +82,7 @@ EXTRA_STARTS = 3  # seeded random starts for step 1, besides the spread-out defa
 # a random start whose loops take longer to close than this is dropped: on the gallery
 # those that close do so within 26 evaluations, and one that fails spends the whole budget
 RANDOM_CLOSE_EVALUATIONS = 40
+TANGLED_MM = 10.0  # see _tangled
 FALL_RETRIES = 2  # more attempts, from other seeds' starts, when a result falls apart
 # a settled point whose energy curves down along some direction by more than this
 # (x the assembly's weight, joules per mm of motion squared) is an unstable balance,
@@ -434,8 +438,9 @@ def _solve_once(model: Model, options: SolveOptions, loop_start: Array | None) -
     masses, centres = _mass_table(model)
     notes: list[Diagnostic] = []
 
-    step1, starts = step_one(model, options.seed, loop_start, options.deadline)
     pairs = contact_pairs(model, options.report)
+    tangled = partial(_tangled, model, pairs)
+    step1, starts = step_one(model, options.seed, loop_start, options.deadline, tangled)
     if options.start is not None and len(options.start) == len(model.variables):
         fit = _continued(step1, options.start)
     else:
@@ -1231,11 +1236,17 @@ def _energy(frames: Array, masses: Array, centres: Array) -> float:
 
 
 def step_one(
-    model: Model, seed: int, loop_start: Array | None = None, deadline: float = float("inf")
+    model: Model,
+    seed: int,
+    loop_start: Array | None = None,
+    deadline: float = float("inf"),
+    tangled: Callable[[Array], bool] | None = None,
 ) -> tuple[Problem, Iterator[Array]]:
     """Step 1's problem (the DoFs that are not pinned, parts sharing a primitive
     kept apart) and its starts over those DoFs: the spread-out defaults (with
-    loops: closed), then seeded random points (with loops: those that close).
+    loops: closed), then, where that first start is `tangled`, the parts hung
+    and the loops closed round the target at its frame (fabhal/solve/hanging.py),
+    then seeded random points (with loops: those that close).
     The random starts are made as they are asked for: closing a random start's
     loops costs as much as a short fit, and a fit that succeeds needs no more
     starts; the first is always asked for, and decides the order of parts along
@@ -1260,9 +1271,25 @@ def step_one(
 
     def starts() -> Iterator[Array]:
         yield first
+        if model.closures and tangled is not None and tangled(first):
+            masses, centres = _mass_table(model)
+            hung = hanging_start(
+                model, x0, free, potential(model, masses, centres), target_mod.goal_of(model),
+                mm_per_unit(model)[free], seed, deadline,
+            )  # fmt: skip
+            if hung is not None:
+                yield hung
         yield from _random_starts(model, x0, seed, deadline)
 
     return Problem(model, free, x0.copy(), spacing, deadline), _distinct(starts(), free)
+
+
+def _tangled(model: Model, pairs: Pairs, x: Array) -> bool:
+    """Whether a start of step 1 has a part deeper than TANGLED_MM in the
+    environment: closing many loops from the defaults crumples chains into the
+    world (a hoop hung by twelve chains: 26 mm into a ceiling hook), where the
+    gallery's closed starts touch it (2.5 mm: a caddy's hook on a seat back)."""
+    return float(penetration(model, x, pairs)[0].max(initial=0.0)) > TANGLED_MM
 
 
 def _random_starts(model: Model, x0: Array, seed: int, deadline: float) -> Iterator[Array]:
