@@ -288,7 +288,7 @@ def dofs_of(variant: str, params: Mapping[str, float], flags: Mapping[str, bool]
     slides_off = flags.get("slide_off", True)
     flex_phi = Dof("phi", 45.0, 135.0, 90.0, lean=True)
     ring_phi = Dof("phi", 30.0, 150.0, 90.0, lean=True)
-    ring_spin = Dof("spin", -180.0, 180.0, 0.0)
+    ring_spin = Dof("spin", -180.0, 180.0, 0.0, periodic=True)  # narrowed where it stops
     table: dict[str, Callable[[], tuple[Dof, ...]]] = {
         # spin: the rod turns in what holds it (a handle in a hook); the reference
         # welds the contact to one line of the rod, so a basket pivoted about its
@@ -656,7 +656,7 @@ def turning_to_the_jam(dof: Dof, jam: float | None) -> Dof:
     as it is."""
     if jam is None or dof.default - jam <= dof.low:
         return dof
-    return replace(dof, low=dof.default - jam, high=dof.default + jam, jammed=True)
+    return replace(dof, low=dof.default - jam, high=dof.default + jam, jammed=True, periodic=False)
 
 
 # Which kinds may connect: the paper's Table 2 (13 unordered pairs).

@@ -11,7 +11,6 @@ from __future__ import annotations
 import time
 from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass, replace
-from functools import partial
 
 import numpy as np
 
@@ -34,7 +33,6 @@ from fabhal.solve.contacts import (
     contacts_at,
     crossings,
     passing_through,
-    penetration,
     with_contacts,
 )
 from fabhal.solve.energy import Energy
@@ -82,7 +80,6 @@ EXTRA_STARTS = 3  # seeded random starts for step 1, besides the spread-out defa
 # a random start whose loops take longer to close than this is dropped: on the gallery
 # those that close do so within 26 evaluations, and one that fails spends the whole budget
 RANDOM_CLOSE_EVALUATIONS = 40
-TANGLED_MM = 10.0  # see _tangled
 FALL_RETRIES = 2  # more attempts, from other seeds' starts, when a result falls apart
 # a settled point whose energy curves down along some direction by more than this
 # (x the assembly's weight, joules per mm of motion squared) is an unstable balance,
@@ -439,8 +436,7 @@ def _solve_once(model: Model, options: SolveOptions, loop_start: Array | None) -
     notes: list[Diagnostic] = []
 
     pairs = contact_pairs(model, options.report)
-    tangled = partial(_tangled, model, pairs)
-    step1, starts = step_one(model, options.seed, loop_start, options.deadline, tangled)
+    step1, starts = step_one(model, options.seed, loop_start, options.deadline)
     if options.start is not None and len(options.start) == len(model.variables):
         fit = _continued(step1, options.start)
     else:
@@ -1236,16 +1232,12 @@ def _energy(frames: Array, masses: Array, centres: Array) -> float:
 
 
 def step_one(
-    model: Model,
-    seed: int,
-    loop_start: Array | None = None,
-    deadline: float = float("inf"),
-    tangled: Callable[[Array], bool] | None = None,
+    model: Model, seed: int, loop_start: Array | None = None, deadline: float = float("inf")
 ) -> tuple[Problem, Iterator[Array]]:
     """Step 1's problem (the DoFs that are not pinned, parts sharing a primitive
     kept apart) and its starts over those DoFs: the spread-out defaults (with
-    loops: closed), then, where that first start is `tangled`, the parts hung
-    and the loops closed round the target at its frame (fabhal/solve/hanging.py),
+    loops: closed), then (with loops) the parts hung and the loops closed round
+    the target at its request, where that reaches it (fabhal/solve/hanging.py),
     then seeded random points (with loops: those that close).
     The random starts are made as they are asked for: closing a random start's
     loops costs as much as a short fit, and a fit that succeeds needs no more
@@ -1271,7 +1263,7 @@ def step_one(
 
     def starts() -> Iterator[Array]:
         yield first
-        if model.closures and tangled is not None and tangled(first):
+        if model.closures:
             masses, centres = _mass_table(model)
             hung = hanging_start(
                 model, x0, free, potential(model, masses, centres), target_mod.goal_of(model),
@@ -1282,14 +1274,6 @@ def step_one(
         yield from _random_starts(model, x0, seed, deadline)
 
     return Problem(model, free, x0.copy(), spacing, deadline), _distinct(starts(), free)
-
-
-def _tangled(model: Model, pairs: Pairs, x: Array) -> bool:
-    """Whether a start of step 1 has a part deeper than TANGLED_MM in the
-    environment: closing many loops from the defaults crumples chains into the
-    world (a hoop hung by twelve chains: 26 mm into a ceiling hook), where the
-    gallery's closed starts touch it (2.5 mm: a caddy's hook on a seat back)."""
-    return float(penetration(model, x, pairs)[0].max(initial=0.0)) > TANGLED_MM
 
 
 def _random_starts(model: Model, x0: Array, seed: int, deadline: float) -> Iterator[Array]:

@@ -9,18 +9,27 @@ the chains folded round it, and the target fit, which keeps the loops closed
 at every step, cannot unfold it (a closed path out of a tangle need not exist
 near it). A builder hangs the chains first, holds the target where it should
 be and hooks the chains on. So: (1) the spanning tree settles under gravity,
-loops open (every chain hangs straight from where it is hooked); (2) the tree
-alone brings the target to its frame (the chain that carries it in the tree
-reaches up or down); (3) least squares on the loops' gaps and the target's
-error together, from there (each cut chain reaches the held target; the
-target may give where the loops cannot close at its frame); (4) the loops
-closed exactly from that point. Every stage is a few dozen Gauss-Newton or
-BFGS steps over the free DoFs (0.2 s for the hoop's 108).
+loops open (every chain hangs straight from where it is hooked); (2) the
+turning DoFs on the target's path are each set to the best of SCAN_STEPS
+values for the target's error, then the tree alone brings the target to its
+frame (the chain that carries it in the tree reaches up or down); (3) each
+loop's turning DoFs (where on a ring its chain hooks on) are set to the best
+of SCAN_STEPS for the loop's gap, then least squares on the loops' gaps and
+the target's error together (each cut chain reaches the held target); (4) the
+loops closed exactly from that point. Every stage is a few dozen Gauss-Newton
+or BFGS steps over the free DoFs, or a few hundred forward passes (0.2 s for
+the hoop's 108 DoFs).
+
+It is a start only where it reaches the target (GOOD_FIT): where nothing
+reaches the request, the closure from the defaults is as good a start as any,
+and hung, the reading nook's balanced loops settle elsewhere (33 degrees from
+the request instead of 19).
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable
+from functools import partial
 
 import numpy as np
 
@@ -30,10 +39,11 @@ from fabhal.model import Model
 from fabhal.optimize import least_squares_objective, minimize
 from fabhal.solve import target as target_mod
 from fabhal.solve.energy import Energy
+from fabhal.solve.steps import GOOD_FIT
 
 HANG_ITERATIONS = 300  # of the tree settling under gravity (the hoop's 12 chains: 67)
 REACH_EVALUATIONS = 200  # of each least-squares stage
-SCAN_STEPS = 24  # values tried for where on a ring a loop's chain hooks on (15 degrees apart)
+SCAN_STEPS = 24  # values tried for a turning DoF (15 degrees apart): see _scanned
 HUNG_AT_REST = 1e-7  # joules per mm: the tree has hung once no force along a DoF is larger
 
 
@@ -49,8 +59,8 @@ def hanging_start(
 ) -> Array | None:
     """The free DoFs of `x0` hung, reached and closed as the module says (pinned
     DoFs keep their values); None where the loops do not close exactly from
-    there. `gravity`: the potential energy; `scale`: mm of motion per unit of
-    each free DoF."""
+    there or the target ends more than GOOD_FIT from its request. `gravity`:
+    the potential energy; `scale`: mm of motion per unit of each free DoF."""
     low, high = (bounds[free] for bounds in model.bounds())
 
     def full(v: Array, base: Array) -> Array:
@@ -81,33 +91,52 @@ def hanging_start(
             np.vstack([model.closure_jacobian(x)[:, free], jacobian]),
         )
 
-    v = _least_squares(target_rows, hung, low, high, scale, deadline)
-    start = _turned_to_close(model, full(v, start), set(free.tolist()))
+    turning = [int(i) for i in free if model.variables[i].dof.periodic]
+    moves_target = np.abs(target_rows(hung)[1]).max(axis=0) > 0.0
+    on_the_path = [int(i) for i, moves in zip(free, moves_target, strict=True) if moves and int(i) in turning]
+    start = _scanned(start, on_the_path, lambda x: float(np.linalg.norm(_target_residual(model, goal, x))))
+    v = _least_squares(target_rows, start[free], low, high, scale, deadline)
+    start = full(v, start)
+    for k, j in enumerate(model.closures):
+        closing_dofs = set(model.joints[j].a.dof_indices + model.joints[j].b.dof_indices)
+        closing_turns = [i for i in turning if i in closing_dofs]
+        start = _scanned(start, closing_turns, partial(_position_gap, model, loop=k))
     v = _least_squares(with_closure_rows, start[free], low, high, scale, deadline)
     closing = close_loops(
         model, seed, starts=1, x0=full(v, start), evaluations=REACH_EVALUATIONS, deadline=deadline
     )
-    return closing.x if closing.closed else None
+    if not closing.closed:
+        return None
+    reached = float(np.linalg.norm(_target_residual(model, goal, closing.x))) <= GOOD_FIT
+    return closing.x if reached else None
 
 
-def _turned_to_close(model: Model, x: Array, free: set[int]) -> Array:
-    """`x` with each free turning DoF of a loop's closing connection (where on a
-    ring a chain hooks on) at the best of SCAN_STEPS values for its loop's gap:
-    from the default, the least squares would drag the contact round the ring,
-    the chain with it."""
+def _scanned(x: Array, dofs: list[int], cost: Callable[[Array], float]) -> Array:
+    """`x` with each of `dofs` in turn (turning DoFs) at the best of SCAN_STEPS
+    values for `cost`: from where the parts hang, a least squares would turn
+    the wrong way round a ring or a wire and drag the rest with it (a hoop
+    hanging from one chain tipped level by sliding along the hook, not by
+    turning about its tube; a loop's chain dragged round the hoop to where it
+    hooks on)."""
     x = x.copy()
     turns = np.linspace(0.0, 360.0, SCAN_STEPS, endpoint=False)
-    for k, j in enumerate(model.closures):
-        joint = model.joints[j]
-        for i in joint.a.dof_indices + joint.b.dof_indices:
-            if i not in free or not model.variables[i].dof.periodic:
-                continue
-            gaps = []
-            for turn in turns:
-                x[i] = turn
-                gaps.append(float(np.linalg.norm(model.closure_residuals(x)[12 * k : 12 * k + 12])))
-            x[i] = turns[int(np.argmin(gaps))]
+    for i in dofs:
+        costs = []
+        for turn in turns:
+            x[i] = turn
+            costs.append(cost(x))
+        x[i] = turns[int(np.argmin(costs))]
     return x
+
+
+def _target_residual(model: Model, goal: target_mod.TargetGoal, x: Array) -> Array:
+    return target_mod.residual(goal, target_mod.achieved(goal, model.part_frames(x)))
+
+
+def _position_gap(model: Model, x: Array, *, loop: int) -> float:
+    """How far apart the closing connection's two sides are (mm): how the chain
+    is turned there the least squares mends."""
+    return float(np.linalg.norm(model.closure_errors(x)[loop, :3, 3]))
 
 
 Rows = Callable[[Array], tuple[Array, Array]]
