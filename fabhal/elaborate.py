@@ -272,6 +272,8 @@ class _Elaborator:
             suggestion = did_you_mean(written.dof, dofs)
             listed = ", ".join(f"`{name}`" for name in dofs) or "none"
             help_text = f"did you mean `{suggestion}`?" if suggestion else f"its DoFs: {listed}"
+            if primitive.kind == "hole" and written.dof == "spin":
+                help_text += "; a ring turns about its own wire only where its part says `spin: true`"
             message = f"{primitive.kind} `{side}` has no DoF `{written.dof}`"
             raise FabhalError([error("E315", message, written.span, help_text)])
         dof = dofs[written.dof]
@@ -285,8 +287,8 @@ class _Elaborator:
                         f"{dof.low:g} .. {dof.high:g}",
                         written.value.span,
                         "t runs along the primitive from 0 to 1; angles are degrees; a flex angle's or a "
-                        "rod's tilt's range ends where a wire jams (`fabhal solve --dofs` shows each DoF's "
-                        "range)",
+                        "rod's tilt's range ends where a wire jams, a ring's spin where its far side meets "
+                        "the hook (`fabhal solve --dofs` shows each DoF's range)",
                     )
                 ]
             )

@@ -140,6 +140,10 @@ MISTAKES = {
     "setting_past_a_jam": "environment rod = Rod(length: 500, radius: 2) at (0, 0, 200)\n"
     "s1 = DoubleHook()\nmug = Mug()\nconnect s1.hook2 -- rod\n"
     "connect mug.hook -- s1.hook1 set (s1.hook1.phi: 130)\n",
+    # the library's rings keep their contact on the inner line: no spin without the flag
+    "spin_without_the_flag": "environment rod = Rod(length: 500, radius: 2) at (0, 0, 200)\n"
+    "s1 = DoubleHook()\nfeeder = BirdFeeder()\nconnect s1.hook2 -- rod\n"
+    "connect feeder.ring -- s1.hook1 set (feeder.ring.spin: 30)\n",
 }
 
 
