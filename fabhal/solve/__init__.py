@@ -1595,13 +1595,29 @@ def _lean_diagnostic(model: Model, lean: Lean) -> Diagnostic:
 
 def _lift_off_diagnostic(model: Model, lift: LiftOff) -> Diagnostic:
     joint = model.joints[lift.joint]
+    help_text = (
+        "hung this way the weight pulls the parts apart (a hook from the inside of a ring's top): hang it "
+        "where what holds it is beneath it, or turn the connection the other way (`flip`)"
+    )
+    if _welded_ring_on_a_hook(joint):
+        help_text += (
+            "; a ring here keeps its contact on its inner line: where a hook should hold its wire from "
+            "above (a hoop hung level), give the ring `spin: true` in its part (docs/primitives.md)"
+        )
     return error(
         "E512",
         f"the assembly falls apart here: `{lift.holder}` would have to pull `{lift.held}` with "
         f"{lift.pull:.2f} N to hold it, but a contact only presses: `{lift.part}` lifts off",
         joint.connection.span,
-        "hung this way the weight pulls the parts apart (a hook from the inside of a ring's top): hang it "
-        "where what holds it is beneath it, or turn the connection the other way (`flip`)",
+        help_text,
+    )
+
+
+def _welded_ring_on_a_hook(joint: Joint) -> bool:
+    """A ring without `spin` (its contact kept on its inner line) held by a hook."""
+    return any(
+        side.primitive.variant in ("Ring", "RingFlex") and other.primitive.kind == "hook"
+        for side, other in ((joint.a, joint.b), (joint.b, joint.a))
     )
 
 

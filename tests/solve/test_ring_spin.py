@@ -96,11 +96,13 @@ def test_without_the_spin_the_hoop_cannot_hang_level(tmp_path: Path) -> None:
     """The reference's ring keeps the contact on its inner line: to hold the tube
     of a level hoop, a hook must hold it from inside, pulling it sideways and up,
     and a contact only presses: E512, it falls apart (the level pose itself is
-    reached, as the solver finds it: only its forces are impossible)."""
+    reached, as the solver finds it: only its forces are impossible), and the
+    help names the flag that lets the ring turn."""
     welded = HOOP_PART.replace(", spin: true", "")
     result = solve_text(tmp_path, welded + THREE_CHAINS + LEVEL_AT_826_9)
     assert result.status == "falls_apart"
-    assert "E512" in [d.code for d in result.diagnostics]
+    lifts = [d for d in result.diagnostics if d.code == "E512"]
+    assert lifts and all("`spin: true`" in (d.help or "") for d in lifts)  # the way out, said
 
 
 def test_a_crumpled_closure_is_followed_by_the_hung_one() -> None:
