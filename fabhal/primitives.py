@@ -619,11 +619,8 @@ def ring_spin_stop_deg(ring: Primitive, hook: Primitive) -> float | None:
     return math.degrees(math.acos(-big_r / reach)) if big_r < reach else None
 
 
-FLEXING = (
-    "HookFlex",
-    "RingFlex",
-    "RingFlexSpin",
-)  # the variants whose `phi` turns about the line of the contact
+# the variants whose `phi` turns about the line of the contact
+FLEXING = ("HookFlex", "RingFlex", "RingFlexSpin")
 TILTING = ("Rod",)  # the variants whose `phi` tilts what hangs on them along them
 SPINNING = ("RingSpin", "RingFlexSpin")  # the variants whose `spin` turns them about their own wire
 

@@ -435,8 +435,8 @@ def _solve_once(model: Model, options: SolveOptions, loop_start: Array | None) -
     masses, centres = _mass_table(model)
     notes: list[Diagnostic] = []
 
-    pairs = contact_pairs(model, options.report)
     step1, starts = step_one(model, options.seed, loop_start, options.deadline)
+    pairs = contact_pairs(model, options.report)
     if options.start is not None and len(options.start) == len(model.variables):
         fit = _continued(step1, options.start)
     else:
