@@ -273,7 +273,10 @@ class _Elaborator:
             listed = ", ".join(f"`{name}`" for name in dofs) or "none"
             help_text = f"did you mean `{suggestion}`?" if suggestion else f"its DoFs: {listed}"
             if primitive.kind == "hole" and written.dof == "spin":
-                help_text += "; a ring turns about its own wire only where its part says `spin: true`"
+                help_text += (
+                    "; a ring turns about its own wire only where its part says `spin: true` "
+                    "(the library's LevelHulaHoop)"
+                )
             message = f"{primitive.kind} `{side}` has no DoF `{written.dof}`"
             raise FabhalError([error("E315", message, written.span, help_text)])
         dof = dofs[written.dof]

@@ -1602,7 +1602,8 @@ def _lift_off_diagnostic(model: Model, lift: LiftOff) -> Diagnostic:
     if _welded_ring_on_a_hook(joint):
         help_text += (
             "; a ring here keeps its contact on its inner line: where a hook should hold its wire from "
-            "above (a hoop hung level), give the ring `spin: true` in its part (docs/primitives.md)"
+            "above (a hoop hung level), use a part whose ring says `spin: true` (the library's "
+            "LevelHulaHoop; docs/primitives.md)"
         )
     return error(
         "E512",

@@ -19,15 +19,8 @@ from fabhal.solve.steps import closure_residual_mm
 from tests.conftest import REPO
 from tests.solve.test_physics import solve_text
 
-HOOP_PART = f"""
-part LevelHoop "a hula hoop whose tube may turn in the hooks that hold it" {{
-  mesh "{REPO / "stdlib_parts" / "meshes" / "hulahoop.stl"}"
-  material plastic
-  mass 211
-  hole ring(arc_radius: 345.75, thickness: 11.5, flex: true, spin: true)
-}}
-hoop = LevelHoop()
-"""
+HOOP = "hoop = LevelHulaHoop()\n"  # the library's HulaHoop with `spin: true`
+WELDED_HOOP = "hoop = HulaHoop()\n"
 
 # three ceiling hooks 120 degrees apart on the hoop's circle (345 mm), each turned a
 # quarter turn from facing the centre: a chain hanging straight meets the tube square
@@ -86,7 +79,7 @@ def test_a_hoop_on_three_chains_hangs_level_where_the_chains_end(tmp_path: Path)
     2.9 + 11.5 higher: 826.9. Requested there, level: it hangs within 1 mm (the
     contacts' give under load and the springs' millimetre) and 0.5 degrees (the
     three chains' small differences of twist), solved (measured: 0.09 mm)."""
-    result = solve_text(tmp_path, HOOP_PART + THREE_CHAINS + LEVEL_AT_826_9)
+    result = solve_text(tmp_path, HOOP + THREE_CHAINS + LEVEL_AT_826_9)
     assert result.status == "solved", [d.message for d in result.diagnostics]
     position_mm, rotation_deg = result.solution.target_errors()
     assert position_mm < 1.0 and rotation_deg < 0.5
@@ -98,8 +91,7 @@ def test_without_the_spin_the_hoop_cannot_hang_level(tmp_path: Path) -> None:
     and a contact only presses: E512, it falls apart (the level pose itself is
     reached, as the solver finds it: only its forces are impossible), and the
     help names the flag that lets the ring turn."""
-    welded = HOOP_PART.replace(", spin: true", "")
-    result = solve_text(tmp_path, welded + THREE_CHAINS + LEVEL_AT_826_9)
+    result = solve_text(tmp_path, WELDED_HOOP + THREE_CHAINS + LEVEL_AT_826_9)
     assert result.status == "falls_apart"
     lifts = [d for d in result.diagnostics if d.code == "E512"]
     assert lifts and all("`spin: true`" in (d.help or "") for d in lifts)  # the way out, said
