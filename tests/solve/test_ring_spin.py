@@ -1,7 +1,7 @@
 """A ring held by a hook turns about its own wire (`spin: true`), so a hoop
-hangs level from S-hooks that hold its tube from above; and step 1 closes many
-loops round the target from the parts hung under gravity where the check's
-closure crumples them (issue 15's hoop on twelve chains)."""
+hangs level from S-hooks that hold its tube from above (issue 15's hoop on
+twelve chains); and step 1 has a start that closes the loops round the target
+from the parts hung under gravity, where the check's closure crumples them."""
 
 from __future__ import annotations
 
