@@ -65,52 +65,47 @@ def hanging_start(
     the potential energy; `scale`: mm of motion per unit of each free DoF."""
     low, high = (bounds[free] for bounds in model.bounds())
 
-    def full(v: Array, base: Array) -> Array:
-        x = base.copy()
+    def full(v: Array) -> Array:
+        x = x0.copy()
         x[free] = v
         return x
 
     def energy(v: Array) -> tuple[float, Array, None]:
-        value, gradient = gravity(full(v, x0))
+        value, gradient = gravity(full(v))
         return value, gradient[free], None
 
-    hung = minimize(
-        energy, x0[free], low, high, scale=scale, max_iterations=HANG_ITERATIONS, gtol=HUNG_AT_REST,
-        deadline=deadline,
-    ).x  # fmt: skip
-    start = full(hung, x0)
-
     def target_rows(v: Array) -> tuple[Array, Array]:
-        fwd = model.forward(full(v, start), with_twists=True)
+        fwd = model.forward(full(v), with_twists=True)
         residual = target_mod.residual(goal, target_mod.achieved(goal, fwd.frames))
         return residual, target_mod.residual_jacobian(goal, model, fwd)[:, free]
 
     def with_closure_rows(v: Array) -> tuple[Array, Array]:
-        x = full(v, start)
+        x = full(v)
         residual, jacobian = target_rows(v)
         return (
             np.concatenate([model.closure_residuals(x), residual]),
             np.vstack([model.closure_jacobian(x)[:, free], jacobian]),
         )
 
-    turning = [int(i) for i in free if model.variables[i].dof.periodic]
+    hung = minimize(
+        energy, x0[free], low, high, scale=scale, max_iterations=HANG_ITERATIONS, gtol=HUNG_AT_REST,
+        deadline=deadline,
+    ).x  # fmt: skip
+    turning = {int(i) for i in free if model.variables[i].dof.periodic}
     moves_target = np.abs(target_rows(hung)[1]).max(axis=0) > 0.0
     on_the_path = [int(i) for i, moves in zip(free, moves_target, strict=True) if moves and int(i) in turning]
-    start = _scanned(start, on_the_path, lambda x: float(np.linalg.norm(_target_residual(model, goal, x))))
-    v = _least_squares(target_rows, start[free], low, high, scale, deadline)
-    start = full(v, start)
+    x = _scanned(full(hung), on_the_path, lambda x: float(np.linalg.norm(_target_residual(model, goal, x))))
+    x = full(_least_squares(target_rows, x[free], low, high, scale, deadline))
     for k, j in enumerate(model.closures):
-        closing_dofs = set(model.joints[j].a.dof_indices + model.joints[j].b.dof_indices)
-        closing_turns = [i for i in turning if i in closing_dofs]
-        start = _scanned(start, closing_turns, partial(_position_gap, model, loop=k))
-    v = _least_squares(with_closure_rows, start[free], low, high, scale, deadline)
-    closing = close_loops(
-        model, seed, starts=1, x0=full(v, start), evaluations=REACH_EVALUATIONS, deadline=deadline
-    )
-    if not closing.closed:
+        closing = model.joints[j]
+        turns = [i for i in closing.a.dof_indices + closing.b.dof_indices if i in turning]
+        x = _scanned(x, turns, partial(_position_gap, model, loop=k))
+    x = full(_least_squares(with_closure_rows, x[free], low, high, scale, deadline))
+    closed = close_loops(model, seed, starts=1, x0=x, evaluations=REACH_EVALUATIONS, deadline=deadline)
+    if not closed.closed:
         return None
-    reached = float(np.linalg.norm(_target_residual(model, goal, closing.x))) <= GOOD_FIT
-    return closing.x if reached else None
+    reached = float(np.linalg.norm(_target_residual(model, goal, closed.x))) <= GOOD_FIT
+    return closed.x if reached else None
 
 
 def _scanned(x: Array, dofs: list[int], cost: Callable[[Array], float]) -> Array:
