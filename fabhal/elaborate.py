@@ -266,7 +266,7 @@ class _Elaborator:
         side, other_side = sides if labels[0] == "a" else sides[::-1]
         primitive, other = (self.part(end.part).spec.primitive(end.primitive) for end in (side, other_side))
         assert primitive is not None and other is not None  # the endpoints were resolved
-        # a flex angle's or a rod's tilt's range ends where a wire jams (as the model's)
+        # a flex angle's, a rod's tilt's or a ring's spin's range ends at its stop (as the model's)
         dofs = {d.name: turning_to_the_jam(d, jam_of(d, primitive, other)) for d in primitive.dofs}
         if written.dof not in dofs:
             suggestion = did_you_mean(written.dof, dofs)
