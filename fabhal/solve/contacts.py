@@ -39,7 +39,7 @@ from numpy.typing import NDArray
 from fabhal.kinematics.contact import DistanceGrid, penalty
 from fabhal.kinematics.frames import Array, angular_velocities
 from fabhal.library import PartSpec
-from fabhal.meshes import contact_grid, contact_points, hull_grid, near_primitive, obstacle_bounds
+from fabhal.meshes import contact_grid, contact_points, hull_grid, inside_bounds, near_primitive
 from fabhal.model import Forward, Joint, Model
 from fabhal.primitives import Primitive
 from fabhal.solve.energy import Energy
@@ -88,7 +88,7 @@ class Pair:
     points: Array  # (N, 3) mm in the part's frame, less those a connection to the obstacle touches with
     check: Array  # (M, 3) the same, CHECK_POINT_SPACING_MM apart (fabhal/meshes.py), for the check
     shape: PartSpec  # the obstacle's: its grid is built when first needed (`grid`)
-    box: Array  # (2, 3) mm, the obstacle's mesh's bounds in its frame
+    box: Array  # (2, 3) mm, where its grid may read inside (`inside_bounds`), in its frame
     building: Callable[[], None] | None = None  # told before the obstacle's grid is first built
     added: Index = field(default_factory=lambda: np.zeros(0, dtype=int))  # the check's points in `points`
     hull: bool = False  # against the obstacle's convex hull (`Pairs.hulls`), not its surface
@@ -114,7 +114,7 @@ class Pairs:
     parts: Index  # (K,) the part of each pair
     obstacles: Index  # (K,) its obstacle
     part_balls: Array  # (K, 4): centre and radius of the part's points
-    obstacle_balls: Array  # (K, 4): of the obstacle's bounds (`obstacle_bounds`)
+    obstacle_balls: Array  # (K, 4): of where the obstacle's grid may read inside (`inside_bounds`)
 
     def __len__(self) -> int:
         return len(self.pairs)
@@ -239,7 +239,7 @@ def contact_pairs(model: Model, report: Callable[[str], None] | None = None) -> 
     # one array per kind of pair, so that pairs alike are looked up at once
     kept: dict[tuple[object, ...], tuple[Array, Array]] = {}
     # where any point inside an obstacle must be, without building its grid: most pairs never come near
-    boxes = {i: obstacle_bounds(model.parts[i].spec) for i in obstacles}
+    boxes = {i: inside_bounds(model.parts[i].spec) for i in obstacles}
     box_balls = {i: _ball_of_box(box) for i, box in boxes.items()}
     pairs = []
     for part in movable:
