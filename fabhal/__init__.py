@@ -1,6 +1,7 @@
 """FabHaL: a solver-aided language for fixture hacks."""
 
 import os
+import sys
 
 # One thread for the numeric libraries, set before numpy loads. FabHaL's matrices
 # are small (tens to a few hundred DoFs): on 2 cores OpenBLAS's threads made
@@ -17,5 +18,14 @@ for _variable in (
     "NUMEXPR_NUM_THREADS",
 ):
     os.environ[_variable] = "1"
+
+if "numpy" in sys.modules:
+    # loaded before FabHaL (a script, pytest): its BLAS read the variables already and
+    # runs threaded, so a solve of a large model differed from the command line's (the
+    # hoop on twelve chains: by 144 degrees in one turn, solved in one, not the other);
+    # the limit is set where the library runs instead
+    from threadpoolctl import threadpool_limits
+
+    threadpool_limits(1)
 
 __version__ = "0.1.0"

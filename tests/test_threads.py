@@ -50,3 +50,38 @@ def test_results_do_not_depend_on_the_environments_thread_settings() -> None:
     )
     timing = re.compile(r'"timing": \{[^}]*\}')
     assert timing.sub("", default.stdout) == timing.sub("", many.stdout)
+
+
+SOLVED_X = """\
+import sys
+{first}
+from pathlib import Path
+from fabhal import api
+from threadpoolctl import threadpool_info
+result = api.solve(Path("bench/programs/hoop_12_chains.fhl"))
+print(max(pool["num_threads"] for pool in threadpool_info()))
+print(result.status, result.solution.x.tobytes().hex())
+"""
+
+
+def test_numpy_loaded_before_fabhal_runs_one_thread_too() -> None:
+    """A script or a test run that imports numpy first has its BLAS threaded
+    before FabHaL's variables can say otherwise; FabHaL then limits it
+    (threadpoolctl). The hoop on twelve chains (131 DoFs: matrices large
+    enough for OpenBLAS to split) solved that way differed from the command
+    line's by 144 degrees in one turn; now both run one thread and agree to
+    the bit."""
+    outputs = []
+    for first in ("import numpy", ""):
+        run = subprocess.run(
+            [sys.executable, "-c", SOLVED_X.format(first=first)],
+            cwd=REPO,
+            env=MANY_THREADS,
+            capture_output=True,
+            text=True,
+            timeout=300,
+        )
+        threads, solved = run.stdout.split("\n")[:2]
+        assert threads == "1", run.stderr
+        outputs.append(solved)
+    assert outputs[0] == outputs[1]
