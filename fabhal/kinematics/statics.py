@@ -10,7 +10,10 @@ equations leave the wrenches undetermined (a part held at two points: a
 statically indeterminate loop) the smallest wrenches are taken (least squares,
 moments counted per MOMENT_ARM_MM): the answer then depends neither on the order
 of the equations nor on that of the unknowns, so not on the order of a
-program's lines.
+program's lines. What a loop may add to them (its own force states) is given
+too, with how much of each: where a loop is nearly singular (chains hanging
+straight side by side) a state that almost balances itself may be added as far
+as the parts stay at rest.
 """
 
 from __future__ import annotations
@@ -35,6 +38,11 @@ SINGULAR = 1e-8
 # least squares took 74 ms at 600 unknowns (a chain of 100 S-hooks, 12 times a
 # solve), the sparse normal equations about 5; smaller systems keep the SVD
 NORMAL_EQUATIONS_UNKNOWNS = 300
+# a direction is one of a loop's own force states where this fraction of the total
+# load along it unbalances the parts by no more than the `slack` a state at rest
+# keeps (twelve chains hanging straight from a hoop: 4e-4 to 1.4e-3 N per N, the
+# next 0.30; a mug's handle on a rod and on an S-hook: 0.028, a real stiffness)
+OWN_REACH = 0.1
 
 
 @dataclass(frozen=True)
@@ -43,9 +51,13 @@ class Wrenches:
     moments: Array  # (J, 3) N mm about each connection's contact point
     imbalance: float  # largest unbalanced force (N, moments per MOMENT_ARM_MM) over all parts
     unbalanced: Array  # (P, 2) per part: the force (N) and the moment (N mm) left over (0 for environments)
-    # (K, J, 3) N: the forces of a loop's own force states (balanced by themselves: any
-    # multiple may be added to `forces`), which the smallest wrenches leave out
+    # (K, J, 3) N: the forces of a loop's own force states (balanced by themselves, or
+    # nearly: see `reach`), which the smallest wrenches leave out
     indeterminate: Array
+    # (K,) N: how much of each state may be added (either sign) with the parts still
+    # balanced within `slack` (inf where it balances itself exactly); added together,
+    # the amounts over their reaches have at most unit norm (`pressing`)
+    reach: Array
 
 
 def _skew(r: Array) -> Array:
@@ -69,6 +81,7 @@ def joint_wrenches(
     free_rotation: Array,
     load_moments: Array | None = None,
     force_only: Array | None = None,
+    slack: float = 0.0,
 ) -> Wrenches:
     """The wrenches that hold every movable part in balance.
 
@@ -82,7 +95,14 @@ def joint_wrenches(
     part's centre of mass, of loads that do not act there (contacts);
     force_only: (J,) the connections that touch at a point and can carry no
     moment (a ball on a floor): their moments are 0, and where the rest
-    cannot balance a part without them, `unbalanced` says by how much."""
+    cannot balance a part without them, `unbalanced` says by how much;
+    slack: the imbalance (N) a state may keep and still be at rest, which
+    makes a direction along which a part of the load (`OWN_REACH`)
+    unbalances the parts by no more than that one of a loop's own states,
+    and `reach` says how much of each may be added: twelve chains hanging straight from a hoop share its
+    weight in any way, but rounding makes the equations just determinate,
+    their smallest wrenches the settle's leftover 1e-4 N amplified by 1/1e-4
+    (one chain pushing up, another carrying 3 times its share)."""
     n_joints, n_parts = len(part_a), len(movable)
     row_of = np.full(n_parts, -1)
     row_of[movable] = np.arange(int(movable.sum()))
@@ -109,7 +129,13 @@ def joint_wrenches(
     if force_only is not None:
         for j in np.flatnonzero(force_only):
             matrix[:, 6 * j + 3 : 6 * j + 6] = 0.0  # no moment unknowns: the least squares leaves them 0
-    solution, own = _least_squares(matrix, rhs)
+    total = float(np.linalg.norm(loads[movable], axis=1).sum())
+    near = slack / (OWN_REACH * total) if total > 0.0 else 0.0
+    tree = n_joints <= int(movable.sum())
+    solution, own, inverse = _least_squares(matrix, rhs, near, tree)
+    reach = np.full(len(inverse), np.inf)
+    finite = np.isfinite(inverse)
+    reach[finite] = slack * inverse[finite]
     wrenches = solution.reshape(n_joints, 6)
     residual = np.abs(matrix @ solution - rhs) if len(rhs) else np.zeros(0)
     per_part = residual[:n_balance].reshape(-1, 2, 3)
@@ -117,55 +143,68 @@ def joint_wrenches(
     unbalanced[placed] = np.linalg.norm(per_part, axis=2) * (1.0, MOMENT_ARM_MM)
     imbalance = float(residual.max(initial=0.0))
     own_forces = own.reshape(len(own), n_joints, 6)[:, :, :3]
-    return Wrenches(wrenches[:, :3], wrenches[:, 3:] * MOMENT_ARM_MM, imbalance, unbalanced, own_forces)
+    return Wrenches(
+        wrenches[:, :3], wrenches[:, 3:] * MOMENT_ARM_MM, imbalance, unbalanced, own_forces, reach
+    )
 
 
-def _least_squares(matrix: Array, rhs: Array) -> tuple[Array, Array]:
+def _least_squares(matrix: Array, rhs: Array, near: float, tree: bool) -> tuple[Array, Array, Array]:
     """The minimum-norm least-squares solution (SVD, directions below SINGULAR left
-    out), and those directions (K, unknowns) among the used unknowns: the
-    loop's own force states. For large systems of full column rank (none of
-    their own) by the normal equations, the same solution to rounding (their
-    Cholesky pivots, the singular values' scale, all above SINGULAR of the
-    largest). Unknowns no equation uses (the moments of a connection that
+    out); the directions (K, unknowns) among the used unknowns whose singular
+    value is below SINGULAR of the largest or `near`: the loop's own force
+    states; and 1 / their singular values (inf for the exact ones). A `tree`
+    (each part hangs by one connection: no loop, so no states) of many
+    unknowns is solved by the normal equations, the same solution to rounding
+    (their Cholesky pivots, the singular values' scale, all above SINGULAR of
+    the largest). Unknowns no equation uses (the moments of a connection that
     carries none) are 0, as the minimum norm has them. The solution is
     LAPACK's least squares (gelsd), not the directions' SVD: where a singular
     value lies near SINGULAR the two round it differently, and three mugs on one
     rod (a nearly singular leaning loop) settled elsewhere."""
     n = matrix.shape[1]
+    none = np.zeros((0, n)), np.zeros(0)
     if not matrix.size:
-        return np.zeros(n), np.zeros((0, n))
-    if n >= NORMAL_EQUATIONS_UNKNOWNS:
+        return np.zeros(n), *none
+    if tree and n >= NORMAL_EQUATIONS_UNKNOWNS:
         used = np.flatnonzero(np.any(matrix != 0.0, axis=0))
         solved = _normal_equations(matrix[:, used], rhs)
         if solved is not None:
             solution = np.zeros(n)
             solution[used] = solved
-            return solution, np.zeros((0, n))
+            return solution, *none
     solution = np.asarray(np.linalg.lstsq(matrix, rhs, rcond=SINGULAR)[0], dtype=float)
-    return solution, _own_states(matrix)
+    return solution, *_own_states(matrix, near)
 
 
-def _own_states(matrix: Array) -> Array:
+def _own_states(matrix: Array, near: float) -> tuple[Array, Array]:
     """(K, unknowns) an orthonormal basis of the directions the equations leave
-    free (singular values below SINGULAR of the largest), among the unknowns
-    some equation uses."""
+    free or nearly (singular values below SINGULAR of the largest, or below
+    `near`), among the unknowns some equation uses; (K,) 1 / their singular
+    values, inf for those below SINGULAR (free)."""
     used = np.flatnonzero(np.any(matrix != 0.0, axis=0))
-    own = np.zeros((0, matrix.shape[1]))
     if not len(used):
-        return own
+        return np.zeros((0, matrix.shape[1])), np.zeros(0)
     values, right = np.linalg.svd(matrix[:, used], full_matrices=matrix.shape[0] < len(used))[1:]
-    rank = int(np.sum(values > SINGULAR * values.max()))
-    own = np.zeros((len(used) - rank, matrix.shape[1]))
-    own[:, used] = right[rank:]
-    return own
+    values = np.concatenate([values, np.zeros(len(used) - len(values))])  # more unknowns than equations
+    free = values <= SINGULAR * values.max()
+    kept = free | (values <= near)
+    own = np.zeros((int(kept.sum()), matrix.shape[1]))
+    own[:, used] = right[kept]
+    with np.errstate(divide="ignore"):
+        return own, np.where(free[kept], np.inf, 1.0 / values[kept])
 
 
-def pressing(normal: Array, own: Array) -> Array:
+def pressing(normal: Array, own: Array, reach: Array | None = None) -> Array:
     """The contacts' normal forces (M,) made as nearly all pressing (>= 0) as
     a loop's own force states allow: own (K, M) is what each adds to them, in
-    any multiple. Least squares of the shortfalls (min(0, force)^2, summed),
-    convex and piecewise quadratic: Newton's step on the contacts short each
-    time (a few steps; the loops are few)."""
+    any multiple up to its `reach` (K,), either sign (no limit where None):
+    the amounts over their reaches have at most unit norm (what they leave
+    unbalanced adds up to at most the slack the reaches were made for; the
+    states are orthogonal). Least squares of the shortfalls (min(0,
+    force)^2, summed), convex and piecewise quadratic: Newton's step on the
+    contacts short each time, scaled back into the reach (a few steps; the
+    loops are few)."""
+    limit = np.full(len(own), np.inf) if reach is None else reach
     combination = np.zeros(len(own))
     for _ in range(PRESSING_STEPS):
         forces = normal + combination @ own
@@ -177,7 +216,8 @@ def pressing(normal: Array, own: Array) -> Array:
         step = np.linalg.lstsq(gram, -(rows @ forces[short]), rcond=SINGULAR)[0]
         if np.abs(step).max(initial=0.0) < 1e-12:
             break
-        combination += step
+        combination = combination + step
+        combination /= max(1.0, float(np.linalg.norm(combination / limit)))
     return normal + combination @ own
 
 

@@ -771,7 +771,9 @@ def _wrenches(
     fixed = {i for i in range(len(model.variables)) if i not in moving}
     ends = {int(problem.free[k]) for k in _resting_ends(problem, x)} | stopped_turns(model.turn_limits, x)
     loads = contact_loads(model, contacts) if contacts else None
-    return connection_wrenches(model, x, masses, centres, fixed | ends | set(slide_dofs(slides)), loads)
+    carrying = fixed | ends | set(slide_dofs(slides))
+    slack = EQUILIBRIUM_TOLERANCE * float(weight_newtons(masses).sum())  # N left unbalanced at rest
+    return connection_wrenches(model, x, masses, centres, carrying, loads, slack)
 
 
 def _settle(
@@ -1016,7 +1018,8 @@ def _lifts_off(model: Model, x: Array, wrenches: Wrenches, masses: Array) -> tup
     what it holds: the gallery's hooks, rings and rods all press along it).
     In a loop the statics' smallest wrenches are one split of the load among
     many: a contact pulls only where no split (the loop's own force states
-    added, `statics.pressing`) lets every contact press (a mug hung on a rod
+    added, and those it nearly has, within the settle's slack: chains hanging
+    straight; `statics.pressing`) lets every contact press (a mug hung on a rod
     and on the S-hook beside it: the smallest split has the handle pull the
     S-hook up; another has it carry the S-hook's weight)."""
     joints = [joint for joint in model.joints if _presses_only(joint)]
@@ -1028,6 +1031,7 @@ def _lifts_off(model: Model, x: Array, wrenches: Wrenches, masses: Array) -> tup
     along = pressing(
         np.einsum("jk,jk->j", wrenches.forces[index], normals),
         np.einsum("sjk,jk->sj", wrenches.indeterminate[:, index], normals),
+        wrenches.reach,
     )
     limit = LIFT_CARRIES * float(weight_newtons(masses).sum())
     lifts = []

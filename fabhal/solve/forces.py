@@ -77,6 +77,7 @@ def connection_wrenches(
     centres: Array,
     carrying: Iterable[int],
     contact_loads: tuple[Array, Array] | None = None,
+    slack: float = 0.0,
 ) -> Wrenches:
     """What every connection carries at x. `carrying`: the DoFs that can carry a
     load along their motion (held, pinned, resting on an end of their range,
@@ -84,7 +85,8 @@ def connection_wrenches(
 
     masses: (P,) grams; centres: (P, 3) mm in part frames; contact_loads: the
     environment's contact forces on each part (P, 3) N and their moments about
-    the world origin (P, 3) N mm (fabhal/solve/contacts.py)."""
+    the world origin (P, 3) N mm (fabhal/solve/contacts.py); slack: the
+    imbalance (N) a state at rest may keep (`statics.joint_wrenches`)."""
     fwd = model.forward(x, with_twists=True)
     assert fwd.own_twists is not None
     frames = fwd.frames
@@ -119,6 +121,7 @@ def connection_wrenches(
         sign[:, None] * rotation,
         load_moments,
         point_contacts(model),
+        slack,
     )
 
 

@@ -159,12 +159,76 @@ def test_pressing_uses_a_loops_own_states_to_make_contacts_press() -> None:
     multiple. (-1, 3): one contact pulls; adding 1 of the state gives (0, 2),
     all pressing. (-1, -1): the state only moves load from one to the other,
     so the least shortfall is where they share it, (-1, -1) itself. Without
-    a state nothing can change. Newton on the short contacts is exact here
-    (the shortfall is quadratic on each piece): 1e-12."""
+    a state nothing can change; with a reach of 0.5 N only half the pull is
+    taken off, (-0.5, 2.5). Newton on the short contacts is exact here (the
+    shortfall is quadratic on each piece): 1e-12."""
     from fabhal.kinematics.statics import pressing
 
     state = np.array([[1.0, -1.0]])
     np.testing.assert_allclose(pressing(np.array([-1.0, 3.0]), state), [0.0, 2.0], atol=1e-12)
     np.testing.assert_allclose(pressing(np.array([-1.0, -1.0]), state), [-1.0, -1.0], atol=1e-12)
     np.testing.assert_allclose(pressing(np.array([-1.0, 3.0]), np.zeros((0, 2))), [-1.0, 3.0])
+    half = pressing(np.array([-1.0, 3.0]), state, np.array([0.5]))
+    np.testing.assert_allclose(half, [-0.5, 2.5], atol=1e-12)
     np.testing.assert_allclose(pressing(np.array([2.0, 3.0]), state), [2.0, 3.0])
+
+
+def bar_on_three_links(tilt_mm: float, push_n: float, slack: float) -> Wrenches:
+    """A 10 N bar (centre at x = 100) hung by three links 100 mm long from
+    points over x = 0, 100 and 200 (z = 100) to the bar (z = 0), each with a
+    ball joint at both ends (free to turn about every axis: a link carries
+    only a force along itself, as a straight chain does); the middle link's
+    lower end `tilt_mm` further along x. The bar also carries `push_n` along
+    x: what a state at rest may leave unbalanced. Parts: 0 the ceiling, 1-3
+    the links (weightless), 4 the bar; connections 0-2 the links' tops, 3-5
+    their lower ends."""
+    tops = np.array([[0.0, 0.0, 100.0], [100.0, 0.0, 100.0], [200.0, 0.0, 100.0]])
+    ends = np.array([[0.0, 0.0, 0.0], [100.0 + tilt_mm, 0.0, 0.0], [200.0, 0.0, 0.0]])
+    return joint_wrenches(
+        part_a=np.array([1, 2, 3, 4, 4, 4]),
+        part_b=np.array([0, 0, 0, 1, 2, 3]),
+        points=np.vstack([tops, ends]),
+        movable=np.array([False, True, True, True, True]),
+        loads=np.array([[0.0, 0.0, 0.0]] * 4 + [[push_n, 0.0, -10.0]]),
+        centres=np.vstack([[[0.0, 0.0, 0.0]], (tops + ends) / 2.0, [[100.0, 0.0, 0.0]]]),
+        free_joint=np.repeat(np.arange(6), 3),
+        free_velocity=np.zeros((18, 3)),
+        free_rotation=np.tile(np.eye(3), (6, 1)),
+        slack=slack,
+    )
+
+
+def test_a_nearly_straight_loop_may_share_its_load_as_a_straight_one() -> None:
+    """The bar on three links (above). Straight links share the bar's weight
+    in any way with t1 = t3 (moments about the middle) and t1 + t2 + t3 = 10:
+    a state (1, -2, 1) of the tensions, balanced by itself. With the middle
+    link's end 0.01 mm aside the equations are just determinate: its tension
+    pulls the bar 1e-4 of itself back along x, so only it can balance the
+    bar's x-load, and the smallest wrenches take t2 = push x 100 / 0.01: a
+    push of -1e-4 N (a settled state's leftover) makes the middle link push
+    the bar down with 1 N and the outer ones carry 5.5 N each (hand: t1 + t3
+    = 10 - t2 = 11, moments about the middle t3 - t1 = -t2 x 1e-4: 5.5 -+
+    5e-5). The state is then balanced only
+    nearly: as unit forces (the tensions (1, -2, 1) / sqrt(12) at both ends
+    of each link, t3 - t1 cancelling its moment) it leaves the bar
+    unbalanced along x by 2 / sqrt(12) x 1e-4 = 5.8e-5 N per N, so the
+    smallest singular value is at most that (the SVD's state spreads the
+    imbalance over the links' rows as well: 1.8e-5). With a slack of 0.01 N
+    (1e-3 of the weight, the settle's) it is one of the loop's own states,
+    with a reach of at least 0.01 / 5.8e-5 = 173 N, and the tensions can all
+    pull (t2 >= 0 needs 1 N x sqrt(12) / 2 = 1.7 N of it). Without slack it
+    is not (the middle link then pushes). Tolerance: 1e-6 N on the smallest
+    wrenches (a condition number of 1e5 on 1e-16)."""
+    from fabhal.kinematics.statics import pressing
+
+    exact = bar_on_three_links(0.0, 0.0, 0.0)
+    assert len(exact.indeterminate) and np.isinf(exact.reach).all()
+    for slack, states in ((0.01, 1), (0.0, 0)):
+        tilted = bar_on_three_links(0.01, -1e-4, slack)
+        tension = -tilted.forces[:3, 2]  # what a link exerts on the ceiling: down, where it pulls
+        np.testing.assert_allclose(tension, [5.5 - 5e-5, -1.0, 5.5 + 5e-5], atol=1e-6)
+        assert len(tilted.indeterminate) == states
+        if states:
+            assert np.isfinite(tilted.reach[0]) and tilted.reach[0] >= 0.01 / (2.0 / np.sqrt(12.0) * 1e-4)
+        shared = pressing(tension, -tilted.indeterminate[:, :3, 2], tilted.reach)
+        assert (shared >= -1e-9).all() == bool(states)
