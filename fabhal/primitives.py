@@ -647,12 +647,13 @@ def jam_of(dof: Dof, primitive: Primitive, other: Primitive) -> float | None:
 
 def turning_to_the_jam(dof: Dof, jam: float | None) -> Dof:
     """A flex angle or a rod's tilt turns as far as a wire jams, a ring's spin
-    as far as its far side meets the hook (`jam`, from `jam_of`), a real stop
-    that carries what presses on it, where that comes before the end of its
-    range ([45, 135], the reference's, whose ends nothing real holds: E509; a
-    spin's full turn, which then no longer wraps round); a DoF with no jam,
-    or a jam beyond the range, as it is."""
-    if jam is None or dof.default - jam <= dof.low:
+    as far as its far side meets the hook (`jam`, from `jam_of`): its range
+    becomes default +- jam, a real stop that carries what presses on it.
+    Narrower or wider than the reference's [45, 135], whose ends nothing real
+    holds (E509): an S-hook on a 5 mm rod sloping 50 degrees tilts 50 along it
+    to hang plumb, its wire jamming only at 58.6; a spin's full turn no
+    longer wraps round. A DoF with no jam, as it is."""
+    if jam is None:
         return dof
     return replace(dof, low=dof.default - jam, high=dof.default + jam, jammed=True, periodic=False)
 

@@ -194,15 +194,15 @@ def test_batched_frames_match_one_connection_at_a_time(
 
 
 def test_a_flex_angle_turns_only_until_its_wire_jams() -> None:
-    """The model narrows a flex angle (`phi` of a flexible hook or ring, a
-    turn about the line of its contact) to where its wire jams, a real stop,
-    where that comes within the model's [45, 135]: a clip light's turnbuckle
-    hook (arc radius 5.75, wire 1.5: 4.25 mm inside) on RingXS's wire (3.3
-    mm) jams at acos(sqrt(3.3 / 4.25)) = 28.22 degrees; the reading nook's
-    links (14 mm inside) on its ObstacleRingL wires (3 mm) would jam at
-    62.42, beyond the range: [45, 135] stays, and its ends stay the model's
-    (E509: nothing real holds them). The S-hooks taped to the shelf edge fit
-    it snugly (9.6 mm inside, 10 mm rod: N416): they cannot turn (pinned)."""
+    """The model bounds a flex angle (`phi` of a flexible hook or ring, a
+    turn about the line of its contact) where its wire jams, a real stop: a
+    clip light's turnbuckle hook (arc radius 5.75, wire 1.5: 4.25 mm inside)
+    on RingXS's wire (3.3 mm) jams at acos(sqrt(3.3 / 4.25)) = 28.22 degrees,
+    within the reference's [45, 135]; the reading nook's links (14 mm inside)
+    on its ObstacleRingL wires (3 mm) jam at acos(sqrt(3 / 14)) = 62.42,
+    beyond it, and turn that far (the reference's 45 was an end nothing real
+    has, E509). The S-hooks taped to the shelf edge fit it snugly (9.6 mm
+    inside, 10 mm rod: N416): they cannot turn (pinned)."""
     import math
 
     light = build_model(api.check(REPO / "programs" / "clip_light_xs.fhl").model.program)  # type: ignore[union-attr]
@@ -216,7 +216,9 @@ def test_a_flex_angle_turns_only_until_its_wire_jams() -> None:
     assert nook is not None
     names = {v.name: (i, v.dof) for i, v in enumerate(nook.variables)}
     _, link = names["link1.hook1.phi"]
-    assert (link.low, link.high) == (45.0, 135.0) and not link.ends_hold
+    jam = math.degrees(math.acos(math.sqrt(3.0 / 14.0)))
+    assert jam == pytest.approx(62.42, abs=0.01)
+    assert (link.low, link.high) == pytest.approx((90 - jam, 90 + jam), abs=1e-9) and link.ends_hold
     snug, _ = names["s1.hook2.phi"]
     assert snug in nook.pinned
 
@@ -235,7 +237,7 @@ def test_a_rods_tilt_of_a_ring_ends_where_the_wire_jams(tmp_path: Path) -> None:
     degrees (primitives.tilt_jam_deg): the range narrows to 90 +- 39.18, a
     real stop (its ends hold, no E509), and a `set` past it is E315. On the
     closet's 6.35 mm rods the jam, acos(6.35 / 10.32) = 52.0, lies beyond
-    the model's 45: the range stays [45, 135] and its ends stay the model's."""
+    the reference's 45, and the range reaches it (90 +- 52.0): its ends hold too."""
     import math
 
     program = tmp_path / "ring.fhl"
@@ -251,4 +253,6 @@ def test_a_rods_tilt_of_a_ring_ends_where_the_wire_jams(tmp_path: Path) -> None:
     assert [d.code for d in api.check(program).diagnostics if d.is_error] == ["E315"]
     closet = model_of(REPO / "programs" / "closet_basket.fhl")
     (rod,) = [v.dof for v in closet.variables if v.name == "rods.rod1.phi"]
-    assert (rod.low, rod.high) == (45.0, 135.0) and not rod.ends_hold
+    wide = math.degrees(math.acos(6.35 / 10.32))
+    assert wide == pytest.approx(52.0, abs=0.05)
+    assert (rod.low, rod.high) == pytest.approx((90.0 - wide, 90.0 + wide), abs=1e-9) and rod.ends_hold
