@@ -988,9 +988,10 @@ def _carry_both(
 ) -> None:
     """Fold a pair of flex angles into `first`: its range becomes the turns
     the pair can make, |u| <= jam with `second` where it stays. With `second`
-    square that is +-jam, each side's own range (`primitives.turning_to_the_jam`).
-    With `second` written, `first` keeps its own range too, and its ends are
-    real stops only where the jam, or its own jam, sets them."""
+    square that is +-jam (each side alone turns to its own jam, at least as
+    far: `primitives.turning_to_the_jam`). With `second` written, `first`
+    keeps its own range too, and its ends are real stops only where the jam,
+    or its own jam, sets them."""
     dof = variables[first].dof
     square = (dof.low + dof.high) / 2.0  # both ranges are symmetric about square (90)
     shift = sign * (variables[second].dof.default - square)

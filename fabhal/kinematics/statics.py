@@ -99,10 +99,11 @@ def joint_wrenches(
     slack: the imbalance (N) a state may keep and still be at rest, which
     makes a direction along which a part of the load (`OWN_REACH`)
     unbalances the parts by no more than that one of a loop's own states,
-    and `reach` says how much of each may be added: twelve chains hanging straight from a hoop share its
-    weight in any way, but rounding makes the equations just determinate,
-    their smallest wrenches the settle's leftover 1e-4 N amplified by 1/1e-4
-    (one chain pushing up, another carrying 3 times its share)."""
+    and `reach` says how much of each may be added. Twelve chains hanging
+    straight from a hoop share its weight in any way, but their last kinks
+    make the equations just determinate, and the smallest wrenches are the
+    settle's leftover 2e-4 N amplified up to 2,500 times: one chain pushing
+    the hoop down, another carrying three times its share."""
     n_joints, n_parts = len(part_a), len(movable)
     row_of = np.full(n_parts, -1)
     row_of[movable] = np.arange(int(movable.sum()))
