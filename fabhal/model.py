@@ -27,10 +27,12 @@ from fabhal.kinematics.frames import Array, angular_velocities, frame_matrix, in
 from fabhal.primitives import (
     FRAME_FORMULAS,
     SPINNING,
+    TILTING,
     Dof,
     FrameFormula,
     Primitive,
     alignment_offset,
+    grips,
     is_flex_angle,
     jam_of,
     turning_to_the_jam,
@@ -785,6 +787,7 @@ def _assemble(program: FlatProgram, parts: tuple[PartInstance, ...]) -> Model:
                 *_ring_spin_off_hooks(joint),
                 *_threaded_centre(joint),
                 *_unturning_yaws(joint),
+                *_untilting_grips(joint),
             )
         )
         | frozenset(turn.second for turn in together if turn.folded)
@@ -953,11 +956,12 @@ def _jam(joint: Joint, variables: list[DofVariable]) -> None:
     turned 44 degrees on its ring's 6.6 mm wire, where it jams at 28, its wire
     through the ring's. Where both sides flex, each is limited so, and their
     sum too (`_turning_together`)."""
+    gripped = _untilting_grips(joint)
     for side, other in ((joint.a, joint.b), (joint.b, joint.a)):
         for i in side.dof_indices:
             dof = variables[i].dof
-            jammed = turning_to_the_jam(dof, jam_of(dof, side.primitive, other.primitive))
-            variables[i] = replace(variables[i], dof=jammed)
+            jam = 0.0 if i in gripped else jam_of(dof, side.primitive, other.primitive)
+            variables[i] = replace(variables[i], dof=turning_to_the_jam(dof, jam))
 
 
 def _turning_together(
@@ -1007,6 +1011,22 @@ def _unturning_yaws(joint: Joint) -> tuple[int, ...]:
     """The flex angles of a loop too snug on what it goes round to turn at all
     (a wire hook bent open round a rod: N416): they stay square (pinned)."""
     return _yaws(joint) if yaw_jam_between(joint.a.primitive, joint.b.primitive) == 0.0 else ()
+
+
+def _untilting_grips(joint: Joint) -> tuple[int, ...]:
+    """A rod's tilt of a loop that grips it (`primitives.grips`: a wire hook
+    bent open round it) stays square (pinned): its plane cannot turn along
+    the rod. Not where the connection is held (`fixed`, taped): there the
+    builder sets the tilt (the reading nook's shelf hooks)."""
+    if joint.held:
+        return ()
+    return tuple(
+        i
+        for side, other in ((joint.a, joint.b), (joint.b, joint.a))
+        if side.primitive.variant in TILTING and grips(other.primitive, side.primitive)
+        for i, dof in zip(side.dof_indices, side.primitive.dofs, strict=True)
+        if dof.name == "phi"
+    )
 
 
 def _keep_within(variables: list[DofVariable], i: int, margin: float) -> None:

@@ -579,8 +579,7 @@ def tilt_jam_deg(loop: Primitive, rod: Primitive) -> float | None:
     """How far a hook or ring hanging on a rod tilts along it (the rod's `phi`,
     the loop's plane turned about the horizontal line across the rod at the
     contact) before its wire jams; None where `rod` is no rod or `loop` no
-    loop, and where the loop fits snugly (its tilt is left to the model's
-    range: the reading nook's shelf hooks, bent open round the shelf).
+    loop, and where the loop fits snugly (`grips`: it does not tilt).
 
     Tilted by b, the loop's plane cuts the rod (radius r) in an ellipse of
     half-axes r across the rod and a = r / cos b along the line of the
@@ -596,6 +595,15 @@ def tilt_jam_deg(loop: Primitive, rod: Primitive) -> float | None:
         return None
     rho, r = opening(loop) / 2.0, across(rod) / 2.0
     return math.degrees(math.acos(r / rho)) if rho > r else None
+
+
+def grips(loop: Primitive, rod: Primitive) -> bool:
+    """Whether a hook or ring fits round a rod so snugly that it cannot tilt
+    along it at all (its inside no wider than the rod: a wire hook bent open
+    round it, N416; `tilt_jam_deg` has no jam there)."""
+    if rod.kind != "rod" or loop.kind not in LOOPS or loop.flags.get("centerline"):
+        return False
+    return opening(loop) <= across(rod)
 
 
 def ring_spin_stop_deg(ring: Primitive, hook: Primitive) -> float | None:

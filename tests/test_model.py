@@ -256,3 +256,27 @@ def test_a_rods_tilt_of_a_ring_ends_where_the_wire_jams(tmp_path: Path) -> None:
     wide = math.degrees(math.acos(6.35 / 10.32))
     assert wide == pytest.approx(52.0, abs=0.05)
     assert (rod.low, rod.high) == pytest.approx((90.0 - wide, 90.0 + wide), abs=1e-9) and rod.ends_hold
+
+
+def test_a_loop_that_grips_its_rod_does_not_tilt_along_it_unless_taped(tmp_path: Path) -> None:
+    """An S-hook (arc radius 11.6, wire 2: 9.6 mm inside) on a 10 mm rod (20 mm
+    across) is bent open round it (N416): the rod's section in any tilted
+    plane of the hook reaches r / cos b >= 10 > 9.6 from the contact, so
+    the hook's plane cannot turn along the rod at all: the rod's tilt is
+    square, [90, 90], and pinned (before: the model's [45, 135]). Written
+    `fixed` (taped on, as the reading nook's shelf hooks) the builder sets
+    the tilt: the model's range stays."""
+    program = tmp_path / "grip.fhl"
+    text = (
+        "environment rod = Rod(length: 300, radius: 10, slide_off: false) at (0, 0, 300) rot (120, 0, 90)\n"
+        "s = DoubleHook()\n"
+        "connect s.hook2 -- rod{fixed}\n"
+        "target s.hook1 at (0, 0, 260)\n"
+    )
+    for fixed, expected in (("", (90.0, 90.0)), (" fixed", (45.0, 135.0))):
+        program.write_text(text.format(fixed=fixed))
+        model = model_of(program)
+        (tilt,) = [i for i, v in enumerate(model.variables) if v.name == "rod.rod.phi"]
+        dof = model.variables[tilt].dof
+        assert (dof.low, dof.high) == expected
+        assert (tilt in model.pinned) == (not fixed)
