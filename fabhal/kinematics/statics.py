@@ -13,7 +13,8 @@ of the equations nor on that of the unknowns, so not on the order of a
 program's lines. What a loop may add to them (its own force states) is given
 too, with how much of each: where a loop is nearly singular (chains hanging
 straight side by side) a state that almost balances itself may be added as far
-as the parts stay at rest.
+as the parts stay at rest, and the wrenches given are the smallest within that
+(what such states carry of the exact ones taken off: the chains share evenly).
 """
 
 from __future__ import annotations
@@ -58,6 +59,9 @@ class Wrenches:
     # balanced within `slack` (inf where it balances itself exactly); added together,
     # the amounts over their reaches have at most unit norm (`pressing`)
     reach: Array
+    # (K,) N: how much of each state `forces` has had taken off the smallest wrenches
+    # (what the nearly own states carried of them), counted against the reach
+    taken: Array
 
 
 def _skew(r: Array) -> Array:
@@ -137,6 +141,12 @@ def joint_wrenches(
     reach = np.full(len(inverse), np.inf)
     finite = np.isfinite(inverse)
     reach[finite] = slack * inverse[finite]
+    # the smallest wrenches within the slack: what the nearly own states carry of them taken off, as far
+    # as their reach allows (twelve straight chains then share a hoop evenly)
+    taken = np.zeros(len(own))
+    taken[finite] = own[finite] @ solution
+    taken /= max(1.0, float(np.linalg.norm(taken[finite] / reach[finite])) if finite.any() else 1.0)
+    solution = solution - taken @ own
     wrenches = solution.reshape(n_joints, 6)
     residual = np.abs(matrix @ solution - rhs) if len(rhs) else np.zeros(0)
     per_part = residual[:n_balance].reshape(-1, 2, 3)
@@ -145,7 +155,7 @@ def joint_wrenches(
     imbalance = float(residual.max(initial=0.0))
     own_forces = own.reshape(len(own), n_joints, 6)[:, :, :3]
     return Wrenches(
-        wrenches[:, :3], wrenches[:, 3:] * MOMENT_ARM_MM, imbalance, unbalanced, own_forces, reach
+        wrenches[:, :3], wrenches[:, 3:] * MOMENT_ARM_MM, imbalance, unbalanced, own_forces, reach, taken
     )
 
 
@@ -195,17 +205,18 @@ def _own_states(matrix: Array, near: float) -> tuple[Array, Array]:
         return own, np.where(free[kept], np.inf, 1.0 / values[kept])
 
 
-def pressing(normal: Array, own: Array, reach: Array | None = None) -> Array:
+def pressing(normal: Array, own: Array, reach: Array | None = None, taken: Array | None = None) -> Array:
     """The contacts' normal forces (M,) made as nearly all pressing (>= 0) as
     a loop's own force states allow: own (K, M) is what each adds to them, in
     any multiple up to its `reach` (K,), either sign (no limit where None):
     the amounts over their reaches have at most unit norm (what they leave
     unbalanced adds up to at most the slack the reaches were made for; the
-    states are orthogonal). Least squares of the shortfalls (min(0,
+    states are orthogonal), counting what was `taken` off already. Least squares of the shortfalls (min(0,
     force)^2, summed), convex and piecewise quadratic: Newton's step on the
     contacts short each time, scaled back into the reach (a few steps; the
     loops are few)."""
     limit = np.full(len(own), np.inf) if reach is None else reach
+    already = np.zeros(len(own)) if taken is None else -taken
     combination = np.zeros(len(own))
     for _ in range(PRESSING_STEPS):
         forces = normal + combination @ own
@@ -217,8 +228,8 @@ def pressing(normal: Array, own: Array, reach: Array | None = None) -> Array:
         step = np.linalg.lstsq(gram, -(rows @ forces[short]), rcond=SINGULAR)[0]
         if np.abs(step).max(initial=0.0) < 1e-12:
             break
-        combination = combination + step
-        combination /= max(1.0, float(np.linalg.norm(combination / limit)))
+        total = already + combination + step
+        combination = total / max(1.0, float(np.linalg.norm(total / limit))) - already
     return normal + combination @ own
 
 

@@ -1041,6 +1041,7 @@ def _lifts_off(model: Model, x: Array, wrenches: Wrenches, masses: Array) -> tup
         np.einsum("jk,jk->j", wrenches.forces[index], normals),
         np.einsum("sjk,jk->sj", wrenches.indeterminate[:, index], normals),
         wrenches.reach,
+        wrenches.taken,
     )
     limit = LIFT_CARRIES * float(weight_newtons(masses).sum())
     lifts = []

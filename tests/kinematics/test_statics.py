@@ -160,8 +160,9 @@ def test_pressing_uses_a_loops_own_states_to_make_contacts_press() -> None:
     all pressing. (-1, -1): the state only moves load from one to the other,
     so the least shortfall is where they share it, (-1, -1) itself. Without
     a state nothing can change; with a reach of 0.5 N only half the pull is
-    taken off, (-0.5, 2.5). Newton on the short contacts is exact here (the
-    shortfall is quadratic on each piece): 1e-12."""
+    taken off, (-0.5, 2.5), and what was taken off before counts against
+    it. Newton on the short contacts is exact here (the shortfall is
+    quadratic on each piece): 1e-12."""
     from fabhal.kinematics.statics import pressing
 
     state = np.array([[1.0, -1.0]])
@@ -170,6 +171,11 @@ def test_pressing_uses_a_loops_own_states_to_make_contacts_press() -> None:
     np.testing.assert_allclose(pressing(np.array([-1.0, 3.0]), np.zeros((0, 2))), [-1.0, 3.0])
     half = pressing(np.array([-1.0, 3.0]), state, np.array([0.5]))
     np.testing.assert_allclose(half, [-0.5, 2.5], atol=1e-12)
+    # what was taken off already counts: 0.5 taken (forces moved by -0.5) leaves 1.0 to add; -0.5, none
+    back = pressing(np.array([-1.0, 3.0]), state, np.array([0.5]), np.array([0.5]))
+    np.testing.assert_allclose(back, [0.0, 2.0], atol=1e-12)
+    spent = pressing(np.array([-1.0, 3.0]), state, np.array([0.5]), np.array([-0.5]))
+    np.testing.assert_allclose(spent, [-1.0, 3.0], atol=1e-12)
     np.testing.assert_allclose(pressing(np.array([2.0, 3.0]), state), [2.0, 3.0])
 
 
@@ -217,18 +223,26 @@ def test_a_nearly_straight_loop_may_share_its_load_as_a_straight_one() -> None:
     (1e-3 of the weight, the settle's) it is one of the loop's own states,
     with a reach of at least 0.01 / 5.8e-5 = 173 N, and the tensions can all
     pull (t2 >= 0 needs 1 N x sqrt(12) / 2 = 1.7 N of it). Without slack it
-    is not (the middle link then pushes). Tolerance: 1e-6 N on the smallest
-    wrenches (a condition number of 1e5 on 1e-16)."""
+    is not (the middle link then pushes). With it, the wrenches given are
+    the smallest within the slack: the state's part taken off, 10/3 N a link.
+    Tolerances: 1e-6 N on the smallest wrenches (a condition number of 1e5
+    on 1e-16); 1e-3 N on the even split (the SVD's state is the hand's to
+    first order in the tilt)."""
     from fabhal.kinematics.statics import pressing
 
     exact = bar_on_three_links(0.0, 0.0, 0.0)
     assert len(exact.indeterminate) and np.isinf(exact.reach).all()
+    without = bar_on_three_links(0.01, -1e-4, 0.0)
+    tension = -without.forces[:3, 2]  # what a link exerts on the ceiling: down, where it pulls
+    np.testing.assert_allclose(tension, [5.5 - 5e-5, -1.0, 5.5 + 5e-5], atol=1e-6)
+    # with the slack the state's part of them is taken off, as far as its reach allows (all of it here):
+    # (5.5, -1, 5.5) - 13/6 (1, -2, 1) = 10/3 each, the straight links' even split
+    shared = -bar_on_three_links(0.01, -1e-4, 0.01).forces[:3, 2]
+    np.testing.assert_allclose(shared, [10.0 / 3.0] * 3, atol=1e-3)
     for slack, states in ((0.01, 1), (0.0, 0)):
         tilted = bar_on_three_links(0.01, -1e-4, slack)
-        tension = -tilted.forces[:3, 2]  # what a link exerts on the ceiling: down, where it pulls
-        np.testing.assert_allclose(tension, [5.5 - 5e-5, -1.0, 5.5 + 5e-5], atol=1e-6)
         assert len(tilted.indeterminate) == states
         if states:
             assert np.isfinite(tilted.reach[0]) and tilted.reach[0] >= 0.01 / (2.0 / np.sqrt(12.0) * 1e-4)
-        shared = pressing(tension, -tilted.indeterminate[:, :3, 2], tilted.reach)
-        assert (shared >= -1e-9).all() == bool(states)
+        pressed = pressing(tension, -tilted.indeterminate[:, :3, 2], tilted.reach)
+        assert (pressed >= -1e-9).all() == bool(states)
