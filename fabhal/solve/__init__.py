@@ -227,6 +227,9 @@ class Solution:
     # (J, 3) N that each connection's a side exerts on its b side, world axes; None without gravity
     forces: Array | None = None
     contacts: tuple[Contact, ...] = ()  # where parts rest on the environment (with gravity)
+    # step 1 found the requested position out of the parts' reach (W505): their lengths fall
+    # short or over, which turning a connection over may change (`_aligned_nearer`)
+    position_out_of_reach: bool = False
 
     def target_frame(self) -> Array:
         return target_mod.achieved(self.goal, self.frames)
@@ -244,12 +247,19 @@ def solve(model: Model, options: SolveOptions, loop_start: Array | None = None) 
     hang at rest (on a lean's stop, or not at rest at all) may be the fault of
     how a connection is turned: where the program leaves that open, the solver
     turns it over (`_aligned`); where it wrote it, the error says whether
-    turned over it would hang (`_with_flip_advice`)."""
+    turned over it would hang (`_with_flip_advice`). One that hangs at rest
+    but whose parts cannot reach the requested position is turned over where
+    the program leaves that open, and kept so where it then hangs nearer
+    (`_aligned_nearer`)."""
     if options.time_limit is not None and not np.isfinite(options.deadline):
         options = replace(options, deadline=time.monotonic() + options.time_limit)
     first = _solve_once(model, options, loop_start)
-    if first.status in ("solved", "infeasible", "error") or not options.gravity or options.start is not None:
-        return first  # a continued start is one try: the member's own solve makes the others
+    # without gravity, or from a continued start, one try: the member's own solve makes the others
+    one_try = not options.gravity or options.start is not None
+    if first.status == "solved" and first.position_out_of_reach and not one_try:
+        return _aligned_nearer(model, options, first)
+    if first.status in ("solved", "infeasible", "error") or one_try:
+        return first
     if not first.falls:  # not at rest, or inside something: turned over, it may hang
         return _aligned(model, options, first) or _with_flip_advice(model, options, first)
     if all(isinstance(fall, Lean) for fall in first.falls):
@@ -341,11 +351,13 @@ def _suspect_connections(model: Model, result: Solution, aligned: bool) -> list[
     return connections[:TURNS_TRIED]
 
 
-def _solved_turned(model: Model, options: SolveOptions, connection: Connection) -> Solution | None:
+def _solved_turned(
+    model: Model, options: SolveOptions, connection: Connection, why: str = "it does not hang at rest"
+) -> Solution | None:
     """The design with `connection` turned over (`flip` toggled), if it solves; None otherwise."""
     if time.monotonic() > options.deadline:
         return None
-    options.report(f"it does not hang at rest; trying {connection.a} -- {connection.b} turned over")
+    options.report(f"{why}; trying {connection.a} -- {connection.b} turned over")
     turned = replace(connection, flip=not connection.flip)
     program = replace(
         model.program,
@@ -368,6 +380,36 @@ def _aligned(model: Model, options: SolveOptions, result: Solution) -> Solution 
             note = _aligned_note(connection, turned, _failure(result))
             return replace(turned, diagnostics=(note, *turned.diagnostics))
     return None
+
+
+def _aligned_nearer(model: Model, options: SolveOptions, result: Solution) -> Solution:
+    """A hack that hangs at rest where its parts cannot bring the target to the
+    requested position (W505: their lengths fall short or over), and where
+    the program leaves open the alignment of a connection that hangs a part
+    on the environment (`_suspects`): turned over, the lengths change (an eye
+    hook's hook opens up instead of down), and it may hang nearer, as a
+    builder whose basket hangs short and askew turns its eye hook over. The
+    turned design that hangs at rest nearest the request, where it is nearer
+    than `result` by more than ALIGNED_NEARER_MM, with N507 saying so; else
+    `result`. Not where only the rotation is out of reach: how the target is
+    held sets that, and each turn tried is a whole solve."""
+    position, rotation = result.target_errors()
+    best: tuple[Connection, Solution] | None = None
+    nearest = position + rotation - ALIGNED_NEARER_MM
+    for connection in _suspect_connections(model, result, aligned=False):
+        turned = _solved_turned(model, options, connection, "it hangs out of the request's reach")
+        if turned is not None and sum(turned.target_errors()) < nearest:
+            best, nearest = (connection, turned), sum(turned.target_errors())
+    if best is None:
+        return result
+    connection, turned = best
+    failure = f"hangs {position:.0f} mm and {rotation:.0f} degrees from it, out of its reach (W505)"
+    return replace(turned, diagnostics=(_aligned_note(connection, turned, failure), *turned.diagnostics))
+
+
+# a design turned over is kept where it hangs nearer the request than this (mm, with
+# degrees counted as mm, as `_rank` adds them): less is the same place
+ALIGNED_NEARER_MM = 1.0
 
 
 def _with_flip_advice(model: Model, options: SolveOptions, result: Solution) -> Solution:
@@ -426,7 +468,7 @@ def _aligned_note(connection: Connection, turned: Solution, failure: str) -> Dia
         f"round {failure}",
         connection.span,
         "build it turned over; write `flip` to say so, or `noflip` to keep the default way round and see "
-        "why it does not hang",
+        "what it does",
     )
 
 
@@ -454,16 +496,17 @@ def _solve_once(model: Model, options: SolveOptions, loop_start: Array | None) -
     _require_finite(
         model, x, np.zeros_like(masses), np.zeros_like(centres), "step 1 (bringing the target to its frame)"
     )
+    fitted = target_mod.errors(goal, target_mod.achieved(goal, model.part_frames(x)))
+    short = False  # the parts cannot bring the target to its requested position (W505)
     if fit.late:
         notes.append(_late(options))
-    elif not step1.out_of_time() and reach.out_of_reach(
-        target_mod.errors(goal, target_mod.achieved(goal, model.part_frames(x)))
-    ):
-        if options.explain:
-            options.report("step 1: the target is out of reach; finding what limits it")
-            notes.append(reach.diagnose(step1, goal, x))
-        else:
-            notes.append(reach.unexplained(model, goal, x))
+    elif not step1.out_of_time() and reach.out_of_reach(fitted):
+        options.report("step 1: the target is out of reach; finding what limits it")
+        loose, loose_position = reach.loosened(step1, goal, x)
+        short = reach.position_out_of_reach(fitted[0], loose_position)
+        # a family's member keeps its notes as codes: the explanation is not written
+        explained = reach.diagnose(step1, goal, x, loose, loose_position) if options.explain else None
+        notes.append(explained or reach.unexplained(model, goal, x))
 
     settled = Settled(x, None, (), ())
     if options.gravity:
@@ -568,6 +611,7 @@ def _solve_once(model: Model, options: SolveOptions, loop_start: Array | None) -
         tuple(diagnostics),
         settled.forces,
         settled.contacts,
+        short,
     )
 
 

@@ -54,17 +54,34 @@ def _at_best(position: float, rotation: float) -> str:
     return f"at best the target is {position:.0f} mm and {rotation:.0f} degrees from it"
 
 
-def diagnose(problem: Problem, goal: target_mod.TargetGoal, x: Array) -> Diagnostic:
-    """W505 for step 1's best `x`, which is out of reach."""
-    model = problem.model
-    position, rotation = target_mod.errors(goal, target_mod.achieved(goal, model.part_frames(x)))
+def loosened(problem: Problem, goal: target_mod.TargetGoal, x: Array) -> tuple[Array, float]:
+    """The position alone fitted from step 1's best `x` (its rotation let
+    free): where that fit ends, and how far (mm) its position stays."""
     free_turn = replace(goal, rotation_weight=0.0)
     loose = problem.full(fit_target(problem, free_turn, [x[problem.free]], evaluations=REACH_EVALUATIONS).v)
+    return loose, target_mod.errors(goal, target_mod.achieved(goal, problem.model.part_frames(loose)))[0]
+
+
+def position_out_of_reach(position: float, loose_position: float) -> bool:
+    """Whether the parts cannot bring the target to its requested position
+    even turned freely (step 1's `position` and the loosened fit's, mm): its
+    rotation alone is not what limits it."""
+    return min(loose_position, position) > REACH_MM
+
+
+def diagnose(
+    problem: Problem, goal: target_mod.TargetGoal, x: Array, loose: Array, loose_position: float
+) -> Diagnostic:
+    """W505 for step 1's best `x`, which is out of reach, with its loosened
+    fit (`loosened`): what limits it."""
+    model = problem.model
+    position, rotation = target_mod.errors(goal, target_mod.achieved(goal, model.part_frames(x)))
     frames = model.part_frames(loose)
-    loose_position = target_mod.errors(goal, target_mod.achieved(goal, frames))[0]
     target = model.program.targets[0]
     at_best = _at_best(position, rotation)
-    if min(loose_position, position) <= REACH_MM:  # turned freely it gets there: the rotation limits
+    if not position_out_of_reach(
+        position, loose_position
+    ):  # turned freely it gets there: the rotation limits
         return warning(
             "W505",
             f"the requested rotation is out of reach: {at_best}",

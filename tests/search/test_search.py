@@ -66,12 +66,16 @@ def test_a_members_result_is_what_solving_it_alone_gives(searched: tuple[SearchO
 def test_a_member_out_of_reach_is_said_so_without_the_fit_that_explains_it(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
-    """n = 1: one S-hook cannot bring the mug down to its request (84 mm short:
-    the hook turns on the 2 mm rod until its wire jams, 62.8 degrees; stopped
-    at the reference's 45 it was 104 mm).
-    A member keeps its notes as codes, so the search says W505 without the
-    fit that finds what limits the reach (a fit more, about 7 % of a
-    clip-light member's solve): the same code, the same result to the bit."""
+    """n = 1: one S-hook cannot bring the mug down to its request: its
+    position is out of reach (W505; the hook turns on the 2 mm rod until its
+    wire jams, 62.8 degrees). The program leaves the S-hook's alignment on
+    the rod open, so the solver turns it over (N507): there the mug hangs 55
+    mm from the request instead of 84, and step 1 gets within 55 mm and 0
+    degrees. A member keeps its notes as codes, so the search says W505
+    without writing what limits the reach (`reach.diagnose`), but fits the
+    position alone all the same (whether the position or only the rotation
+    is out of reach decides whether a connection is turned over): the same
+    codes, the same result to the bit."""
     import fabhal.solve.reach as reach
 
     bindings = {"radius": "2", "hook": "DoubleHook", "n": "1"}
@@ -80,7 +84,8 @@ def test_a_member_out_of_reach_is_said_so_without_the_fit_that_explains_it(
     checked = api.check(FAMILY, bindings)
     member = api.solve_checked(checked, explain=False)
     (said,) = [d for d in member.diagnostics if d.code == "W505"]
-    assert said.message == "the target is out of reach: at best the target is 84 mm and 39 degrees from it"
+    assert said.message == "the target is out of reach: at best the target is 55 mm and 0 degrees from it"
+    assert "N507" in [d.code for d in member.diagnostics]
     assert [d.code for d in member.diagnostics] == [d.code for d in explained.diagnostics]
     assert (member.solution.x == explained.solution.x).all()
 

@@ -14,40 +14,39 @@ from tests.conftest import REPO
 from tests.solve.test_physics import solve_text
 
 
-def no_flip_program(tmp_path: Path, written: str = "noflip") -> Path:
+def no_flip_program(tmp_path: Path, written: str = "noflip", first: str = "") -> Path:
     """The gallery's soap bottle holder with the second eye hook's ring hung on
     the door rod the default way round (its hook then opens the other way):
-    `written` after the connection (`noflip` pins that; "" leaves it open)."""
+    `written` after the connection (`noflip` pins that; "" leaves it open),
+    `first` after the first eye hook's (the gallery leaves it open)."""
     text = (REPO / "programs" / "soap_bottle_holder.fhl").read_text()
     text = text.replace('import "lib/', f'import "{REPO}/programs/lib/')
-    flipped = "connect hanger.ring2 -- door flip"
-    assert flipped in text
+    flipped, other = "connect hanger.ring2 -- door flip", "connect hanger.ring1 -- door\n"
+    assert flipped in text and other in text
+    text = text.replace(other, f"connect hanger.ring1 -- door {first}".rstrip() + "\n")
     path = tmp_path / "no_flip.fhl"
     path.write_text(text.replace(flipped, f"connect hanger.ring2 -- door {written}".rstrip()))
     return path
 
 
-@pytest.mark.parametrize("written", ["noflip", ""])
-def test_a_basket_on_a_wrongly_turned_eye_hook_hangs_askew_on_its_jams(tmp_path: Path, written: str) -> None:
+def test_a_basket_on_a_wrongly_turned_eye_hook_hangs_askew_on_its_jams(tmp_path: Path) -> None:
     """The basket on the wrongly turned eye hook (its ring on the door rod the
-    default way round, pinned `noflip` or left open). The other eye hook then
-    twists on the 10 mm door rod until its wire jams, twice: its ring tilts
-    along the rod until the rod's section reaches across the ring's inside
-    (cos b = r / p = 5 / 10.32: b = 61.02 degrees, primitives.tilt_jam_deg)
-    and turns about the contact until its wire jams (90 - 44.11 = 45.89,
-    primitives.yaw_jam_deg). Both are real stops: the wire presses on the
-    rod. Before, the tilt stopped at the reference's 45 degrees, an end
-    nothing real has, and the result was not at rest (E509); now it is
-    solved, at rest, the basket askew 43.7 mm and 10 degrees from the request
-    (out of reach this way round: W505), as the picture shows it. The
-    default way round hangs, so an open alignment is not turned over (the
-    gallery's `flip` hangs 1.5 mm from it; choosing between two ways that
-    both hang is not done yet). Tolerances: 1e-6 degrees on the jams (the
-    bounds themselves), 1 mm and 1 degree on where it hangs (the settle's
-    rest, 1e-3 of the weight)."""
+    default way round), both eye hooks pinned the way they are written
+    (`noflip`). The other eye hook then twists on the 10 mm door rod until
+    its wire jams, twice: its ring tilts along the rod until the rod's
+    section reaches across the ring's inside (cos b = r / p = 5 / 10.32: b =
+    61.02 degrees, primitives.tilt_jam_deg) and turns about the contact
+    until its wire jams (90 - 44.11 = 45.89, primitives.yaw_jam_deg). Both
+    are real stops: the wire presses on the rod. Before, the tilt stopped at
+    the reference's 45 degrees, an end nothing real has, and the result was
+    not at rest (E509); now it is solved, at rest, the basket askew 43.7 mm
+    and 10 degrees from the request (its position out of reach this way
+    round: W505), as the picture shows it. Tolerances: 1e-6 degrees on the
+    jams (the bounds themselves), 1 mm and 1 degree on where it hangs (the
+    settle's rest, 1e-3 of the weight)."""
     import math
 
-    path = no_flip_program(tmp_path, written)
+    path = no_flip_program(tmp_path, "noflip", first="noflip")
     result = api.solve(path)
     assert result.status == "solved", [d.message for d in result.diagnostics]
     codes = [d.code for d in result.diagnostics]
@@ -67,6 +66,31 @@ def test_a_basket_on_a_wrongly_turned_eye_hook_hangs_askew_on_its_jams(tmp_path:
     assert at_bound["hanger.e1.ring.phi"] == pytest.approx(ring.low, abs=1e-6) and ring.ends_hold
     position, rotation = solution.target_errors()
     assert position == pytest.approx(43.7, abs=1.0) and rotation == pytest.approx(10.0, abs=1.0)
+
+
+def test_an_alignment_the_program_leaves_open_is_chosen(tmp_path: Path) -> None:
+    """The same connection written with neither `flip` nor `noflip` (the first
+    eye hook pinned `noflip`): the default way round hangs askew as above,
+    43.7 mm and 10 degrees from the request, where the parts cannot bring
+    the target to its requested position (W505: the eye hook's opening down
+    shortens the drop). The program leaves that alignment open, so the
+    solver turns it over, as a builder whose basket hangs short and askew
+    would: the result is the gallery's design (1.5 mm and 0 degrees from the
+    request, within its 10 mm), solved, and N507 names the connection's
+    line. Written with `flip`, the same answer without the note (the
+    gallery's soap holder); to 0.5 mm (the same design solved twice)."""
+    path = no_flip_program(tmp_path, written="", first="noflip")
+    result = api.solve(path)
+    assert result.status == "solved"
+    (note,) = [d for d in result.diagnostics if d.code == "N507"]
+    assert note.span is not None
+    assert path.read_text().splitlines()[note.span.line - 1] == "connect hanger.ring2 -- door"
+    assert "turned over" in note.message and "out of its reach (W505)" in note.message
+    position, rotation = result.solution.target_errors()
+    gallery = api.solve(REPO / "programs" / "soap_bottle_holder.fhl")
+    assert "N507" not in [d.code for d in gallery.diagnostics]
+    assert position < 10.0 and rotation < 5.0
+    assert position == pytest.approx(gallery.solution.target_errors()[0], abs=0.5)
 
 
 TOTE = """\
