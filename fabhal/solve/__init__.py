@@ -227,9 +227,10 @@ class Solution:
     # (J, 3) N that each connection's a side exerts on its b side, world axes; None without gravity
     forces: Array | None = None
     contacts: tuple[Contact, ...] = ()  # where parts rest on the environment (with gravity)
-    # step 1 found the requested position out of the parts' reach (W505): their lengths fall
-    # short or over, which turning a connection over may change (`_aligned_nearer`)
-    position_out_of_reach: bool = False
+    # mm: how far step 1 left the target from its requested position where the parts cannot
+    # reach it (W505: their lengths fall short or over, which turning a connection over may
+    # change, `_aligned_nearer`); 0 where they can, or where only the rotation is out of reach
+    out_of_reach_mm: float = 0.0
 
     def target_frame(self) -> Array:
         return target_mod.achieved(self.goal, self.frames)
@@ -256,7 +257,7 @@ def solve(model: Model, options: SolveOptions, loop_start: Array | None = None) 
     first = _solve_once(model, options, loop_start)
     # without gravity, or from a continued start, one try: the member's own solve makes the others
     one_try = not options.gravity or options.start is not None
-    if first.status == "solved" and first.position_out_of_reach and not one_try:
+    if first.status == "solved" and first.out_of_reach_mm > 0.0 and not one_try:
         return _aligned_nearer(model, options, first)
     if first.status in ("solved", "infeasible", "error") or one_try:
         return first
@@ -351,19 +352,24 @@ def _suspect_connections(model: Model, result: Solution, aligned: bool) -> list[
     return connections[:TURNS_TRIED]
 
 
-def _solved_turned(
-    model: Model, options: SolveOptions, connection: Connection, why: str = "it does not hang at rest"
-) -> Solution | None:
-    """The design with `connection` turned over (`flip` toggled), if it solves; None otherwise."""
-    if time.monotonic() > options.deadline:
-        return None
-    options.report(f"{why}; trying {connection.a} -- {connection.b} turned over")
+def _turned(model: Model, connection: Connection) -> Model:
+    """The design with `connection` turned over (`flip` toggled)."""
     turned = replace(connection, flip=not connection.flip)
     program = replace(
         model.program,
         connections=tuple(turned if c is connection else c for c in model.program.connections),
     )
-    other = _solve_once(build_model(program), options, None)
+    return build_model(program)
+
+
+def _solved_turned(
+    turned: Model, options: SolveOptions, connection: Connection, why: str = "it does not hang at rest"
+) -> Solution | None:
+    """The design turned over at `connection` (`_turned`), if it solves; None otherwise."""
+    if time.monotonic() > options.deadline:
+        return None
+    options.report(f"{why}; trying {connection.a} -- {connection.b} turned over")
+    other = _solve_once(turned, options, None)
     return other if other.status == "solved" else None
 
 
@@ -375,7 +381,7 @@ def _aligned(model: Model, options: SolveOptions, result: Solution) -> Solution 
     `noflip`): the solver chooses it. The first of them that hangs at rest
     turned over gives the result, with N507 saying so; None if none does."""
     for connection in _suspect_connections(model, result, aligned=False):
-        turned = _solved_turned(model, options, connection)
+        turned = _solved_turned(_turned(model, connection), options, connection)
         if turned is not None:
             note = _aligned_note(connection, turned, _failure(result))
             return replace(turned, diagnostics=(note, *turned.diagnostics))
@@ -388,16 +394,22 @@ def _aligned_nearer(model: Model, options: SolveOptions, result: Solution) -> So
     the program leaves open the alignment of a connection that hangs a part
     on the environment (`_suspects`): turned over, the lengths change (an eye
     hook's hook opens up instead of down), and it may hang nearer, as a
-    builder whose basket hangs short and askew turns its eye hook over. The
-    turned design that hangs at rest nearest the request, where it is nearer
-    than `result` by more than ALIGNED_NEARER_MM, with N507 saying so; else
-    `result`. Not where only the rotation is out of reach: how the target is
-    held sets that, and each turn tried is a whole solve."""
+    builder whose basket hangs short and askew turns its eye hook over. A
+    turn is solved only where its step 1 (gravity off, cheap) brings the
+    target nearer the requested position by more than a builder's eye
+    (`reach.REACH_MM`): a chain 400 mm short stays short either way round.
+    The turned design that hangs at rest nearest the request, where it is
+    nearer than `result` by more than ALIGNED_NEARER_MM, with N507 saying
+    so; else `result`. Not where only the rotation is out of reach: how the
+    target is held sets that."""
     position, rotation = result.target_errors()
     best: tuple[Connection, Solution] | None = None
     nearest = position + rotation - ALIGNED_NEARER_MM
     for connection in _suspect_connections(model, result, aligned=False):
-        turned = _solved_turned(model, options, connection, "it hangs out of the request's reach")
+        turned_model = _turned(model, connection)
+        if _fitted_position(turned_model, options) >= result.out_of_reach_mm - reach.REACH_MM:
+            continue
+        turned = _solved_turned(turned_model, options, connection, "it hangs out of the request's reach")
         if turned is not None and sum(turned.target_errors()) < nearest:
             best, nearest = (connection, turned), sum(turned.target_errors())
     if best is None:
@@ -405,6 +417,14 @@ def _aligned_nearer(model: Model, options: SolveOptions, result: Solution) -> So
     connection, turned = best
     failure = f"hangs {position:.0f} mm and {rotation:.0f} degrees from it, out of its reach (W505)"
     return replace(turned, diagnostics=(_aligned_note(connection, turned, failure), *turned.diagnostics))
+
+
+def _fitted_position(model: Model, options: SolveOptions) -> float:
+    """How far (mm) step 1 alone brings the target from its requested position."""
+    goal = target_mod.goal_of(model)
+    step1, starts = step_one(model, options.seed, None, options.deadline)
+    fit = fit_target(step1, goal, starts, contact_pairs(model, lambda _: None))
+    return target_mod.errors(goal, target_mod.achieved(goal, model.part_frames(step1.full(fit.v))))[0]
 
 
 # a design turned over is kept where it hangs nearer the request than this (mm, with
@@ -419,7 +439,7 @@ def _with_flip_advice(model: Model, options: SolveOptions, result: Solution) -> 
     the error says so (E509 at that connection; else the first error's help
     names it), with how near the request it would hang."""
     for connection in _suspect_connections(model, result, aligned=True):
-        turned = _solved_turned(model, options, connection)
+        turned = _solved_turned(_turned(model, connection), options, connection)
         if turned is None:
             continue
         position, rotation = turned.target_errors()
@@ -497,13 +517,13 @@ def _solve_once(model: Model, options: SolveOptions, loop_start: Array | None) -
         model, x, np.zeros_like(masses), np.zeros_like(centres), "step 1 (bringing the target to its frame)"
     )
     fitted = target_mod.errors(goal, target_mod.achieved(goal, model.part_frames(x)))
-    short = False  # the parts cannot bring the target to its requested position (W505)
+    short = 0.0  # mm, where the parts cannot bring the target to its requested position (W505)
     if fit.late:
         notes.append(_late(options))
     elif not step1.out_of_time() and reach.out_of_reach(fitted):
         options.report("step 1: the target is out of reach; finding what limits it")
         loose, loose_position = reach.loosened(step1, goal, x)
-        short = reach.position_out_of_reach(fitted[0], loose_position)
+        short = fitted[0] if reach.position_out_of_reach(fitted[0], loose_position) else 0.0
         # a family's member keeps its notes as codes: the explanation is not written
         explained = reach.diagnose(step1, goal, x, loose, loose_position) if options.explain else None
         notes.append(explained or reach.unexplained(model, goal, x))
