@@ -54,6 +54,27 @@ class DistanceGrid:
         return within & (self._block_least[block[:, 0], block[:, 1], block[:, 2]] <= 0.0)
 
     @cached_property
+    def _last_cell(self) -> Array:
+        """(3,) the last cell's corner index along each axis, plus one."""
+        return np.array(self.values.shape) - 1
+
+    @cached_property
+    def _flat(self) -> Array:
+        return self.values.ravel()
+
+    @cached_property
+    def _strides(self) -> Array:
+        """(3,) a grid index's step in `_flat` along each axis."""
+        ny, nz = self.values.shape[1:]
+        return np.array([ny * nz, nz, 1])
+
+    @cached_property
+    def _corner_steps(self) -> Array:
+        """(8,) a cell's eight corners as steps in `_flat` from its first, [x][y][z]."""
+        x, y, z = self._strides
+        return np.array([a * x + b * y + e * z for a in (0, 1) for b in (0, 1) for e in (0, 1)])
+
+    @cached_property
     def _block_least(self) -> Array:
         """The least value over each block's corners: block b covers the cells
         b * B .. b * B + B - 1, whose corners run to b * B + B (shared with the next)."""
@@ -69,21 +90,16 @@ class DistanceGrid:
     def sample(self, points: Array) -> tuple[Array, Array]:
         """(N, 3) points in the grid's frame -> (N,) distances and (N, 3)
         gradients (trilinear). Outside the grid: +inf and zero."""
-        shape = np.array(self.values.shape)
         cell = (points - self.origin) / self.spacing
         corner = np.floor(cell).astype(int)
-        inside = np.all((corner >= 0) & (corner < shape - 1), axis=1)
+        inside = np.all((corner >= 0) & (corner < self._last_cell), axis=1)
         distance = np.full(len(points), np.inf)
         gradient = np.zeros((len(points), 3))
         if not inside.any():
             return distance, gradient
         c = corner[inside]
         u = cell[inside] - c
-        ny, nz = self.values.shape[1:]
-        flat = self.values.ravel()
-        base = (c[:, 0] * ny + c[:, 1]) * nz + c[:, 2]
-        steps = np.array([(a * ny + b) * nz + e for a in (0, 1) for b in (0, 1) for e in (0, 1)])
-        corners = flat[base[:, None] + steps].reshape(-1, 2, 2, 2)  # [x][y][z] corners of each cell
+        corners = self._flat[(c @ self._strides)[:, None] + self._corner_steps].reshape(-1, 2, 2, 2)
         ux, uy, uz = u[:, 0, None, None], u[:, 1, None], u[:, 2]
         along_x = corners[:, 0] * (1 - ux) + corners[:, 1] * ux  # (n, 2, 2) over y, z
         along_y = along_x[:, 0] * (1 - uy) + along_x[:, 1] * uy  # (n, 2) over z

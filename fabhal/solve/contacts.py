@@ -313,33 +313,53 @@ def _reach(primitive: Primitive) -> float:
 
 
 def _distances(
-    fwd: Forward, pairs: Pairs, group: list[int], check: bool = False
-) -> tuple[Array, Array, Array]:
-    """Pairs of one kind (the same points against the same grid) at once: their
-    points (the check's if `check`) in the world (G, N, 3), their signed
-    distances from the obstacle (G, N; +inf where not looked up) and the
-    distances' gradients in the world (G, N, 3)."""
-    first = pairs.pairs[group[0]]
+    fwd: Forward, pairs: Pairs, groups: list[list[int]], check: bool = False
+) -> list[tuple[Array, Array, Array]]:
+    """For each group of pairs of one kind (the same points against the same
+    grid, `_kinds`): their points (the check's if `check`) in the world (G,
+    N, 3), their signed distances from the obstacle (G, N; +inf where not
+    looked up) and the distances' gradients in the world (G, N, 3). The
+    groups that look at one grid look it up together (the caddy's S-hooks and
+    the caddy against the seat backs: one look-up, not two; each look-up
+    costs as much as its points)."""
     frames = fwd.frames
-    part, obstacle = frames[pairs.parts[group]], frames[pairs.obstacles[group]]
-    # row vectors: p_world = R p + o is p @ R^T + o, and p_local = (p_world - o) @ R
-    points = first.check if check else first.points
-    world = points @ part[:, :3, :3].transpose(0, 2, 1) + part[:, None, :3, 3]
-    local = (world - obstacle[:, None, :3, 3]) @ obstacle[:, :3, :3]
-    # only points within the obstacle's box, and in its grid's blocks that reach
-    # inside, can be inside it: the rest are not looked up (their distances stay +inf)
-    low, high = first.box
-    flat = local.reshape(-1, 3)
-    boxed = np.flatnonzero(((flat >= low) & (flat <= high)).all(axis=1))
-    distances = np.full(len(flat), np.inf)
-    if not len(boxed):  # most look-ups (a part near an obstacle's ball, outside its box)
-        return world, distances.reshape(len(group), -1), np.zeros((*local.shape[:2], 3))
-    boxed = boxed[first.grid.could_be_inside(flat[boxed])]
-    gradients = np.zeros((len(flat), 3))
-    distances[boxed], gradients[boxed] = first.grid.sample(flat[boxed])
-    distance: Array = distances.reshape(len(group), -1)
-    gradient = gradients.reshape(len(group), -1, 3) @ obstacle[:, :3, :3].transpose(0, 2, 1)
-    return world, distance, gradient
+    looked: list[tuple[Array, Array, Array, Index]] = []  # world, local (flat), obstacle frames, boxed
+    for group in groups:
+        first = pairs.pairs[group[0]]
+        part, obstacle = frames[pairs.parts[group]], frames[pairs.obstacles[group]]
+        # row vectors: p_world = R p + o is p @ R^T + o, and p_local = (p_world - o) @ R
+        points = first.check if check else first.points
+        world = points @ part[:, :3, :3].transpose(0, 2, 1) + part[:, None, :3, 3]
+        flat = ((world - obstacle[:, None, :3, 3]) @ obstacle[:, :3, :3]).reshape(-1, 3)
+        # only points within the obstacle's box, and in its grid's blocks that reach
+        # inside, can be inside it: the rest are not looked up (their distances stay +inf)
+        low, high = first.box
+        looked.append((world, flat, obstacle, np.flatnonzero(((flat >= low) & (flat <= high)).all(axis=1))))
+    distances = [np.full(len(flat), np.inf) for _, flat, _, _ in looked]
+    gradients = [np.zeros((len(flat), 3)) for _, flat, _, _ in looked]
+    by_grid: dict[int, list[int]] = {}
+    for g, group in enumerate(groups):
+        if len(looked[g][3]):  # most look-ups (a part near an obstacle's ball, outside its box)
+            by_grid.setdefault(id(pairs.pairs[group[0]].grid), []).append(g)
+    for members in by_grid.values():
+        grid = pairs.pairs[groups[members[0]][0]].grid
+        boxed = np.concatenate([looked[g][1][looked[g][3]] for g in members])
+        owner = np.repeat(members, [len(looked[g][3]) for g in members])
+        index = np.concatenate([looked[g][3] for g in members])
+        near = grid.could_be_inside(boxed)
+        found, slopes = grid.sample(boxed[near])
+        for g in members:
+            mine = owner[near] == g
+            distances[g][index[near][mine]] = found[mine]
+            gradients[g][index[near][mine]] = slopes[mine]
+    return [
+        (
+            world,
+            distance.reshape(len(world), -1),
+            gradient.reshape(len(world), -1, 3) @ obstacle[:, :3, :3].transpose(0, 2, 1),
+        )
+        for (world, _, obstacle, _), distance, gradient in zip(looked, distances, gradients, strict=True)
+    ]
 
 
 @dataclass(frozen=True)
@@ -394,8 +414,8 @@ def _kinds(pairs: Pairs, fwd: Forward, check: bool = False) -> list[list[int]]:
 
 def _look_inside(model: Model, fwd: Forward, pairs: Pairs) -> Touching:
     found: list[tuple[Array, Array, Array, Array]] = []
-    for group in _kinds(pairs, fwd):
-        world, distance, normal = _distances(fwd, pairs, group)
+    groups = _kinds(pairs, fwd)
+    for group, (world, distance, normal) in zip(groups, _distances(fwd, pairs, groups), strict=True):
         inside = distance < 0.0
         if not inside.any():  # the usual answer: nothing to gather
             continue
@@ -522,8 +542,8 @@ def check(model: Model, x: Array, pairs: Pairs) -> Checked:
 def _look_finely(fwd: Forward, pairs: Pairs) -> Checked:
     depth = np.zeros(len(pairs))
     deep: dict[int, Array] = {}
-    for group in _kinds(pairs, fwd, check=True):
-        distance = _distances(fwd, pairs, group, check=True)[1]
+    groups = _kinds(pairs, fwd, check=True)
+    for group, (_, distance, _) in zip(groups, _distances(fwd, pairs, groups, check=True), strict=True):
         for row, k in enumerate(group):
             inside = -distance[row]
             depth[k] = max(0.0, float(inside.max(initial=0.0)))

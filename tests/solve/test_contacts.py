@@ -17,9 +17,10 @@ from scipy.spatial import cKDTree
 from fabhal import api
 from fabhal.meshes import contact_grid, contact_points, mass_properties, primitive_mesh
 from fabhal.solve import Solution
-from fabhal.solve.contacts import Contact, Pairs, _distances, contact_pairs
+from fabhal.solve.contacts import Contact, Pairs, _distances, _kinds, contact_pairs
 from fabhal.solve.forces import weight_newtons
 from tests.conftest import REPO
+from tests.test_gallery import solved as gallery_solved
 
 
 def solved(name: str) -> Solution:
@@ -38,7 +39,7 @@ def deepest(solution: Solution) -> dict[str, float]:
     depth: dict[str, float] = {}
     pairs = contact_pairs(model)
     for k, pair in enumerate(pairs.pairs):
-        distance = _distances(fwd, pairs, [k], check=True)[1][0]
+        distance = _distances(fwd, pairs, [[k]], check=True)[0][1][0]
         name = model.parts[pair.part].name
         depth[name] = max(depth.get(name, 0.0), float(max(0.0, -distance.min())))
     return depth
@@ -64,12 +65,34 @@ def test_the_pairs_looked_at_are_those_whose_balls_meet_and_far_ones_read_outsid
             meet.append(k)
     assert pairs.near(frames).tolist() == meet and meet
     for k in meet:
-        world, distance, gradient = _distances(fwd, pairs, [k])
+        ((world, distance, gradient),) = _distances(fwd, pairs, [[k]])
         points = len(pairs.pairs[k].points)
         assert world.shape == gradient.shape == (1, points, 3) and distance.shape == (1, points)
         outside = ~np.isfinite(distance[0])
         assert np.all(gradient[0][outside] == 0.0)
-    assert any(np.isfinite(_distances(fwd, pairs, [k])[1]).any() for k in meet)  # the wall is looked up
+    assert any(np.isfinite(_distances(fwd, pairs, [[k]])[0][1]).any() for k in meet)  # the wall is looked up
+
+
+def test_groups_on_one_grid_look_it_up_together_with_the_same_answer() -> None:
+    """The diaper caddy where it hangs: its four S-hooks (one kind) and the
+    caddy (another) both look at the seat backs' grid, and are looked up in
+    one batch. Each point's trilinear distance and gradient depend on that
+    point alone, so the batch gives every group exactly what it gets looked
+    up alone (to the bit), in both the settle's points and the check's."""
+    result = gallery_solved("diaper_caddy")  # the gallery test's, cached
+    model = result.solution.model
+    fwd = model.forward(result.solution.x)
+    pairs = contact_pairs(model)
+    for check in (False, True):
+        groups = _kinds(pairs, fwd, check)
+        grids = [id(pairs.pairs[g[0]].grid) for g in groups]
+        assert len(set(grids)) < len(groups)  # some share a grid: the batch is exercised
+        together = _distances(fwd, pairs, groups, check)
+        for group, batched in zip(groups, together, strict=True):
+            (alone,) = _distances(fwd, pairs, [group], check)
+            for mine, its in zip(batched, alone, strict=True):
+                assert np.array_equal(mine, its)
+        assert any(np.isfinite(distance).any() for _, distance, _ in together)
 
 
 def held_by_the_environment(solution: Solution) -> np.ndarray:
