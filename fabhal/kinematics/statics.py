@@ -211,10 +211,10 @@ def pressing(normal: Array, own: Array, reach: Array | None = None, taken: Array
     any multiple up to its `reach` (K,), either sign (no limit where None):
     the amounts over their reaches have at most unit norm (what they leave
     unbalanced adds up to at most the slack the reaches were made for; the
-    states are orthogonal), counting what was `taken` off already. Least squares of the shortfalls (min(0,
-    force)^2, summed), convex and piecewise quadratic: Newton's step on the
-    contacts short each time, scaled back into the reach (a few steps; the
-    loops are few)."""
+    states are orthogonal), counting what was `taken` off already. Least
+    squares of the shortfalls (min(0, force)^2, summed), convex and
+    piecewise quadratic: Newton's step on the contacts short each time,
+    scaled back into the reach (a few steps; the loops are few)."""
     limit = np.full(len(own), np.inf) if reach is None else reach
     already = np.zeros(len(own)) if taken is None else -taken
     combination = np.zeros(len(own))

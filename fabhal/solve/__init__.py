@@ -395,7 +395,7 @@ def _aligned_nearer(model: Model, options: SolveOptions, result: Solution) -> So
     on the environment (`_suspects`): turned over, the lengths change (an eye
     hook's hook opens up instead of down), and it may hang nearer, as a
     builder whose basket hangs short and askew turns its eye hook over. A
-    turn is solved only where its step 1 (gravity off, cheap) brings the
+    turn is solved only where a short step 1 (`_fitted_position`) brings the
     target nearer the requested position by more than a builder's eye
     (`reach.REACH_MM`): a chain 400 mm short stays short either way round.
     The turned design that hangs at rest nearest the request, where it is
@@ -421,8 +421,8 @@ def _aligned_nearer(model: Model, options: SolveOptions, result: Solution) -> So
 
 def _fitted_position(model: Model, options: SolveOptions) -> float:
     """How far (mm) a short step 1 (its first start, reach.REACH_EVALUATIONS)
-    brings the target from its requested position: a screen, a fraction of
-    a solve (the full fit of a chain of 100 S-hooks took a fifth of its)."""
+    brings the target from its requested position: a screen (a full step 1
+    cost the chain of 100 S-hooks 0.46 s, this one 0.16)."""
     goal = target_mod.goal_of(model)
     step1, starts = step_one(model, options.seed, None, options.deadline)
     pairs = contact_pairs(model, lambda _: None)
