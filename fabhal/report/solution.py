@@ -142,11 +142,16 @@ def dof_rows(solution: Solution) -> list[dict[str, Any]]:
     program sets it: `set (...)`), `set once` (a clip's grip, a `fixed`
     connection, a place friction holds: the builder's setting, aimed),
     `other side` (a loop's turn about the line of its contact where the other
-    side's turn, about the same line, carries both: it stays square) or
-    `settles` (gravity moves it); `at_end`: resting on an end of its range."""
+    side's turn, about the same line, carries both: it stays square), `stays`
+    (the model keeps it where it is: a hook bent open round its rod neither
+    turns nor tilts on it, a ring's spin where no hook holds it) or `settles`
+    (gravity moves it); `at_end`: resting on an end of its range."""
     model = solution.model
     settings, resting, lengths = builder_settings(model), set(solution.at_bound), mm_per_unit(model)
     carried = {turn.second for turn in model.turn_limits if turn.folded}
+    # what stands on a floor is only centred in step 1 (pinned there) and slides under gravity
+    on_floors = {i for standing in model.standing for i in standing.slide}
+    kept = set(model.pinned) - carried - on_floors
     rows = []
     for i, variable in enumerate(model.variables):
         dof = variable.dof
@@ -162,20 +167,22 @@ def dof_rows(solution: Solution) -> list[dict[str, Any]]:
                 "turns_freely": dof.periodic,
                 "value": round(value, 6) + 0.0,
                 "as_built": setting_text(model, i, value, float(lengths[i])),
-                "role": _role(i, model.written, settings, carried),
+                "role": _role(i, model.written, settings, carried, kept),
                 "at_end": i in resting,
             }
         )
     return rows
 
 
-def _role(i: int, written: frozenset[int], settings: set[int], carried: set[int]) -> str:
+def _role(i: int, written: frozenset[int], settings: set[int], carried: set[int], kept: set[int]) -> str:
     """What decides DoF i (`dof_rows`)."""
     if i in written:
         return "written"
     if i in settings:
         return "set once"
-    return "other side" if i in carried else "settles"
+    if i in carried:
+        return "other side"
+    return "stays" if i in kept else "settles"
 
 
 # ---------------------------------------------------------------- for people

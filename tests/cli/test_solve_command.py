@@ -226,3 +226,23 @@ def test_dofs_say_which_loop_turns_for_both_sides() -> None:
     ):
         assert dofs[carried]["role"] == "other side" and dofs[carried]["value"] == 90.0
         assert dofs[carrying]["role"] == "settles"
+
+
+def test_dofs_say_what_the_model_keeps_where_it_is(tmp_path: Path) -> None:
+    """An S-hook (9.6 mm inside) on a 20 mm rod grips it (N416): it can
+    neither turn about the contact nor tilt along the rod (both 90, pinned:
+    tests/test_model.py), and an environment's rod keeps the contact on its
+    top line (its spin, 0): --dofs says the model keeps them (`stays`), not
+    that gravity settles them; the hook's angle round its arc settles."""
+    program = tmp_path / "grip.fhl"
+    program.write_text(
+        "environment rod = Rod(length: 300, radius: 10, slide_off: false) at (0, 0, 300) rot (120, 0, 90)\n"
+        "s = DoubleHook()\n"
+        "connect s.hook2 -- rod\n"
+        "target s.hook1 at (0, 0, 260)\n"
+    )
+    data = json.loads(fabhal("solve", "--json", str(program)).stdout)
+    roles = {d["name"]: (d["role"], d["value"]) for d in data["dofs"]}
+    assert roles["s.hook2.phi"] == ("stays", 90.0) and roles["rod.rod.phi"] == ("stays", 90.0)
+    assert roles["rod.rod.spin"] == ("stays", 0.0)
+    assert roles["s.hook2.theta"][0] == "settles"
