@@ -75,9 +75,12 @@ friction). Then the settings that stay put (where a clip grips a bar, where
 a part sits on a rod that friction holds) are aimed: chosen again so that the
 settled target hangs nearest the request (note N506 lists them; --two-step
 keeps step 1's; a setting written in the program, `set (hanger.rod.t: 0.47)`
-on its connection, is held as written). If a connection would slide off an
-open end, or an object fall over on its floor or its round feet, from every
-start tried, the status is `falls_apart` and the message names the
+on its connection, is held as written). A connection written with neither
+`flip` nor `noflip` is turned over where the default way round does not hang
+at rest, or hangs but the parts cannot reach the requested position, and
+turned over it hangs (nearer): note N507 says so. If a connection would slide
+off an open end, or an object fall over on its floor or its round feet, from
+every start tried, the status is `falls_apart` and the message names the
 connection; a result that is not verified at rest (E503; an object sliding on
 its feet, E510) has the status `not_at_rest`.
 
