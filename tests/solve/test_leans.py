@@ -93,6 +93,28 @@ def test_an_alignment_the_program_leaves_open_is_chosen(tmp_path: Path) -> None:
     assert position == pytest.approx(gallery.solution.target_errors()[0], abs=0.5)
 
 
+def test_the_alignment_chosen_does_not_depend_on_the_order_of_lines(tmp_path: Path) -> None:
+    """The open-alignment basket above with its connections written in the
+    reverse order: the same connection turned over (N507 names the same
+    line's text), the same result to 1e-6 mm (the solver is deterministic
+    and the choice depends on where each way hangs, not on which is tried
+    first)."""
+    path = no_flip_program(tmp_path, written="", first="noflip")
+    lines = path.read_text().splitlines()
+    at = [i for i, line in enumerate(lines) if line.startswith("connect ")]
+    for i, line in zip(at, [lines[i] for i in reversed(at)], strict=True):
+        lines[i] = line
+    reversed_path = tmp_path / "reversed.fhl"
+    reversed_path.write_text("\n".join(lines) + "\n")
+    results = [api.solve(p) for p in (path, reversed_path)]
+    notes = [next(d for d in r.diagnostics if d.code == "N507") for r in results]
+    written = [q.read_text().splitlines() for q in (path, reversed_path)]
+    texts = [lines[note.span.line - 1] for lines, note in zip(written, notes, strict=True)]
+    assert texts == ["connect hanger.ring2 -- door"] * 2
+    frames = [r.solution.frames[r.solution.model.part_index("soap")] for r in results]
+    assert np.abs(frames[0][:3, 3] - frames[1][:3, 3]).max() < 1e-6
+
+
 TOTE = """\
 environment rod = Rod(length: 800, radius: 12) at (0, 0, 1500) rot (90, 0, 90)
 s = DoubleHookMedium()
