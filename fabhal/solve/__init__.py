@@ -1539,7 +1539,10 @@ def _verify(
             stationarity = max(stationarity, abs(force[k]))  # would move back inside: not at rest
         is_open = dof.low_open if end == "min" else dof.high_open
         joint = model.joints[model.variables[i].joint]
-        if outward and pushed and is_open:
+        # on the very tip of an open end that no friction holds, what is not pushed back
+        # inside comes off at the slightest sway, even unpushed (a hook's tip at its lowest)
+        on_the_tip = is_open and i not in holding and not (pushed and not outward)
+        if (outward and pushed and is_open) or on_the_tip:
             falls.append(Fall(joint.index, i, end, _falling_part(model, joint, model.variables[i].side)))
         elif (
             outward and not dof.ends_hold and abs(force[k]) > LEAN_CARRIES and not _in_a_corner(problem, x, i)

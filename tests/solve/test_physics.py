@@ -599,3 +599,30 @@ def test_a_loop_that_puts_two_parts_in_one_place_is_e423(tmp_path: Path) -> None
     assert crowded is not None and crowded.code == "E423"
     assert "2 mm apart along `rod.rod`, closer than they fit (8 mm)" in crowded.message
     assert crowded.span is not None and crowded.span.line in (4, 6)
+
+
+def test_nothing_rests_on_the_very_tip_of_an_open_hook() -> None:
+    """100 small S-hooks hung in a chain from a rod, asked for 128 mm higher
+    than the chain reaches (bench/programs/s_hook_chain.fhl). Each S-hook
+    (arc radius 11.6 to the wire's centre line, wire 2 mm in radius, arcs'
+    centres 23.2 apart) adds 11.6 + 23.2 + 11.6 = 46.4 mm from the top of
+    its upper arc to the bottom of its lower one, less the two wires' radii
+    where the next one's arc rests on it: a pitch of 46.4 - 4 = 42.4 mm,
+    the same all down a chain hanging straight. The aim once settled it with
+    the 100th hook hanging on the very tip of the 99th's lower arc (its open
+    end, turned to be its lowest point, so nothing pushed it off) and the 99th
+    folded at its middle: 45 mm shorter, nearer the request, `solved`. A hook
+    on the tip of an open end that no friction holds comes off at the
+    slightest sway: that is a fall (`_verify`), so the chain hangs straight:
+    every pitch 42.4 mm (0.1 mm: the contacts' give), no DoF resting on an
+    open end."""
+    result = api.solve(REPO / "bench" / "programs" / "s_hook_chain.fhl", {"n": "100"})
+    solution = result.solution
+    assert solution is not None and result.status == "solved", result.diagnostics
+    model = solution.model
+    heights = np.array([solution.frames[model.part_index(f"s[{k}]")][2, 3] for k in range(1, 101)])
+    np.testing.assert_allclose(-np.diff(heights), 42.4, atol=0.1)
+    low = model.bounds()[0]
+    for i in solution.at_bound:
+        dof = model.variables[i].dof
+        assert not (dof.low_open if abs(solution.x[i] - low[i]) < 1e-9 else dof.high_open)
