@@ -31,7 +31,7 @@ def test_a_chain_too_short_says_how_far_it_reaches(tmp_path: Path) -> None:
     (problem,) = reach_warnings(tmp_path / "far.fhl")
     assert problem.span is not None and problem.span.line == 6
     assert "requested position is out of reach" in problem.message
-    gap = float(re.search(r"at best the target is (\d+) mm", problem.message).group(1))
+    gap = float(re.search(r"step 1 brings the target within (\d+) mm", problem.message).group(1))
     assert 1850 <= gap <= 1950
     wanted, got = map(
         float, re.search(r"request is (\d+) mm from `rod`.*reach (\d+) mm", problem.help).groups()
@@ -64,7 +64,7 @@ def test_a_rotation_the_holder_cannot_give_is_named(tmp_path: Path) -> None:
     (tmp_path / "standing.fhl").write_text(STANDING)
     (problem,) = reach_warnings(tmp_path / "standing.fhl")
     assert "requested rotation is out of reach" in problem.message
-    assert "at best the target is 0 mm and 40 degrees" in problem.message
+    assert "step 1 brings the target within 0 mm and 40 degrees" in problem.message
     assert "within 0 mm of the requested position" in problem.help
 
 
