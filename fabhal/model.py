@@ -152,6 +152,11 @@ class Model:
     def part_index(self, name: str) -> int:
         return next(i for i, p in enumerate(self.parts) if p.name == name)
 
+    def floor_slides(self) -> frozenset[int]:
+        """The DoFs of objects standing on a floor that gravity may slide: pinned
+        (centred) in step 1, free in step 2, unless the program set where."""
+        return frozenset(i for standing in self.standing for i in standing.slide) - self.written
+
     def as_written(self) -> list[int]:
         """The parts' indices in the order the program declares them (the
         model's own order is the tree's: `build_model`), for what people read."""

@@ -49,15 +49,14 @@ class DistanceGrid:
         points it clears gives negative distances exactly where `sample` of all
         would; a contact needs only those (most points of a part lie far from
         any surface: a hoop in a room)."""
-        shape = np.array(self.values.shape)
         corner = np.floor((points - self.origin) / self.spacing).astype(int)
-        within = np.all((corner >= 0) & (corner < shape - 1), axis=1)
-        block = np.clip(corner, 0, shape - 2) // BLOCK_CELLS
+        within = np.all((corner >= 0) & (corner < self._last_cell), axis=1)
+        block = np.clip(corner, 0, self._last_cell - 1) // BLOCK_CELLS
         return within & (self._block_least[block[:, 0], block[:, 1], block[:, 2]] <= 0.0)
 
     @cached_property
     def _last_cell(self) -> Array:
-        """(3,) the last cell's corner index along each axis, plus one."""
+        """(3,) the cells along each axis: a cell's first corner lies below it."""
         return np.array(self.values.shape) - 1
 
     @cached_property

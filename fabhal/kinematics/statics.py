@@ -137,15 +137,13 @@ def joint_wrenches(
     total = float(np.linalg.norm(loads[movable], axis=1).sum())
     near = slack / (OWN_REACH * total) if total > 0.0 else 0.0
     tree = n_joints <= int(movable.sum())
-    solution, own, inverse = _least_squares(matrix, rhs, near, tree)
-    reach = np.full(len(inverse), np.inf)
-    finite = np.isfinite(inverse)
-    reach[finite] = slack * inverse[finite]
+    solution, own, reach = _least_squares(matrix, rhs, near, slack, tree)
     # the smallest wrenches within the slack: what the nearly own states carry of them taken off, as far
     # as their reach allows (twelve straight chains then share a hoop evenly)
+    finite = np.isfinite(reach)
     taken = np.zeros(len(own))
     taken[finite] = own[finite] @ solution
-    taken /= max(1.0, float(np.linalg.norm(taken[finite] / reach[finite])) if finite.any() else 1.0)
+    taken /= max(1.0, float(np.linalg.norm(taken[finite] / reach[finite])))
     solution = solution - taken @ own
     wrenches = solution.reshape(n_joints, 6)
     residual = np.abs(matrix @ solution - rhs) if len(rhs) else np.zeros(0)
@@ -159,11 +157,14 @@ def joint_wrenches(
     )
 
 
-def _least_squares(matrix: Array, rhs: Array, near: float, tree: bool) -> tuple[Array, Array, Array]:
+def _least_squares(
+    matrix: Array, rhs: Array, near: float, slack: float, tree: bool
+) -> tuple[Array, Array, Array]:
     """The minimum-norm least-squares solution (SVD, directions below SINGULAR left
     out); the directions (K, unknowns) among the used unknowns whose singular
     value is below SINGULAR of the largest or `near`: the loop's own force
-    states; and 1 / their singular values (inf for the exact ones). A `tree`
+    states; and how much of each leaves the parts unbalanced by `slack`
+    (slack / its singular value; inf for the exact ones). A `tree`
     (each part hangs by one connection: no loop, so no states) of many
     unknowns is solved by the normal equations, the same solution to rounding
     (their Cholesky pivots, the singular values' scale, all above SINGULAR of
@@ -184,14 +185,14 @@ def _least_squares(matrix: Array, rhs: Array, near: float, tree: bool) -> tuple[
             solution[used] = solved
             return solution, *none
     solution = np.asarray(np.linalg.lstsq(matrix, rhs, rcond=SINGULAR)[0], dtype=float)
-    return solution, *_own_states(matrix, near)
+    return solution, *_own_states(matrix, near, slack)
 
 
-def _own_states(matrix: Array, near: float) -> tuple[Array, Array]:
+def _own_states(matrix: Array, near: float, slack: float) -> tuple[Array, Array]:
     """(K, unknowns) an orthonormal basis of the directions the equations leave
     free or nearly (singular values below SINGULAR of the largest, or below
-    `near`), among the unknowns some equation uses; (K,) 1 / their singular
-    values, inf for those below SINGULAR (free)."""
+    `near`), among the unknowns some equation uses; (K,) slack / their
+    singular values, inf for those below SINGULAR (free)."""
     used = np.flatnonzero(np.any(matrix != 0.0, axis=0))
     if not len(used):
         return np.zeros((0, matrix.shape[1])), np.zeros(0)
@@ -201,8 +202,10 @@ def _own_states(matrix: Array, near: float) -> tuple[Array, Array]:
     kept = free | (values <= near)
     own = np.zeros((int(kept.sum()), matrix.shape[1]))
     own[:, used] = right[kept]
-    with np.errstate(divide="ignore"):
-        return own, np.where(free[kept], np.inf, 1.0 / values[kept])
+    reach = np.full(len(own), np.inf)
+    nearly = ~free[kept]
+    reach[nearly] = slack / values[kept][nearly]
+    return own, reach
 
 
 def pressing(normal: Array, own: Array, reach: Array | None = None, taken: Array | None = None) -> Array:

@@ -149,9 +149,7 @@ def dof_rows(solution: Solution) -> list[dict[str, Any]]:
     model = solution.model
     settings, resting, lengths = builder_settings(model), set(solution.at_bound), mm_per_unit(model)
     carried = {turn.second for turn in model.turn_limits if turn.folded}
-    # what stands on a floor is only centred in step 1 (pinned there) and slides under gravity
-    on_floors = {i for standing in model.standing for i in standing.slide}
-    kept = set(model.pinned) - carried - on_floors
+    kept = set(model.pinned) - carried - model.floor_slides()  # written DoFs say so first
     rows = []
     for i, variable in enumerate(model.variables):
         dof = variable.dof

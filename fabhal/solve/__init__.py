@@ -410,8 +410,11 @@ def _aligned_nearer(model: Model, options: SolveOptions, result: Solution) -> So
         if _fitted_position(turned_model, options) >= result.out_of_reach_mm - reach.REACH_MM:
             continue
         turned = _solved_turned(turned_model, options, connection, "it hangs out of the request's reach")
-        if turned is not None and sum(turned.target_errors()) < nearest:
-            best, nearest = (connection, turned), sum(turned.target_errors())
+        if turned is None:
+            continue
+        error = sum(turned.target_errors())
+        if error < nearest:
+            best, nearest = (connection, turned), error
     if best is None:
         return result
     connection, turned = best
@@ -520,13 +523,13 @@ def _solve_once(model: Model, options: SolveOptions, loop_start: Array | None) -
         model, x, np.zeros_like(masses), np.zeros_like(centres), "step 1 (bringing the target to its frame)"
     )
     fitted = target_mod.errors(goal, target_mod.achieved(goal, model.part_frames(x)))
-    short = 0.0  # mm, where the parts cannot bring the target to its requested position (W505)
+    out_of_reach_mm = 0.0  # where the parts cannot bring the target to its requested position (W505)
     if fit.late:
         notes.append(_late(options))
     elif not step1.out_of_time() and reach.out_of_reach(fitted):
         options.report("step 1: the target is out of reach; finding what limits it")
         loose, loose_position = reach.loosened(step1, goal, x)
-        short = fitted[0] if reach.position_out_of_reach(fitted[0], loose_position) else 0.0
+        out_of_reach_mm = fitted[0] if reach.position_out_of_reach(fitted[0], loose_position) else 0.0
         # a family's member keeps its notes as codes: the explanation is not written
         explained = reach.diagnose(step1, goal, x, loose, loose_position) if options.explain else None
         notes.append(explained or reach.unexplained(model, goal, x))
@@ -634,7 +637,7 @@ def _solve_once(model: Model, options: SolveOptions, loop_start: Array | None) -
         tuple(diagnostics),
         settled.forces,
         settled.contacts,
-        short,
+        out_of_reach_mm,
     )
 
 
@@ -1032,13 +1035,11 @@ def _settle_with(
     test and the turn (for comparing)."""
     model = step1.model
     held = {i for j in model.joints if j.held for i in j.a.dof_indices + j.b.dof_indices}
-    # gravity may slide them, unless the program set where
-    on_floors = {i for standing in model.standing for i in standing.slide} - model.written
-    movable = np.array(sorted({int(i) for i in step1.free if i not in held} | on_floors), dtype=int)
+    moving = {int(i) for i in step1.free if i not in held} | model.floor_slides()  # gravity slides those
+    movable = np.array(sorted(moving), dtype=int)
     step2 = Problem(model, movable, x.copy(), step1.spacing, step1.deadline)
     weight = _weight(masses)
     gravity = with_contacts(model, potential(model, masses, centres), pairs, weight)
-    moving = set(movable.tolist())
     slides = [slide for slide in friction_slides(model) if set(slide.dofs) <= moving]
     origin = x
 

@@ -348,10 +348,11 @@ def _distances(
         index = np.concatenate([looked[g][3] for g in members])
         near = grid.could_be_inside(boxed)
         found, slopes = grid.sample(boxed[near])
+        owner, index = owner[near], index[near]
         for g in members:
-            mine = owner[near] == g
-            distances[g][index[near][mine]] = found[mine]
-            gradients[g][index[near][mine]] = slopes[mine]
+            mine = owner == g
+            distances[g][index[mine]] = found[mine]
+            gradients[g][index[mine]] = slopes[mine]
     return [
         (
             world,

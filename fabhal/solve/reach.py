@@ -82,9 +82,7 @@ def diagnose(
     frames = model.part_frames(loose)
     target = model.program.targets[0]
     at_best = _at_best(position, rotation)
-    if not position_out_of_reach(
-        position, loose_position
-    ):  # turned freely it gets there: the rotation limits
+    if not position_out_of_reach(position, loose_position):  # turned freely it gets there: rotation limits
         return warning(
             "W505",
             f"the requested rotation is out of reach: {at_best}",
