@@ -474,7 +474,7 @@ def _cached_array(
 def _load_array(path: Path, kind: str) -> object | None:
     try:
         with np.load(path) as stored:
-            if kind == "grid":
+            if "values" in stored:  # a grid: the surface's or the hull's (`_save_array`)
                 return DistanceGrid(stored["origin"], float(stored["spacing"]), stored["values"])
             return stored["points"]
     except (OSError, ValueError, KeyError):

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import math
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -160,6 +161,27 @@ def test_a_hull_grid_fills_what_the_surface_leaves_open() -> None:
     assert surface[0] > 0 and surface[1] > 0 and surface[3] > 0
     assert hull[0] == pytest.approx(-40.0, abs=2.6) and hull[1] < -5.0 and hull[3] > 0
     assert surface[2] == pytest.approx(-1.1, abs=0.5) and hull[2] == pytest.approx(-1.1, abs=0.5)
+
+
+@pytest.mark.parametrize("grid", [contact_grid, hull_grid], ids=["surface", "hull"])
+def test_a_grid_is_built_once_per_machine(
+    grid: Callable[..., object], tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Built once (the mug's hull: about a second), then read back from the
+    user cache dir by every later process (here: the process's own cache
+    emptied) without building again, the same grid to the bit. The hull's
+    grid was saved but read back as points: every process that took two
+    crossing mugs apart built it again."""
+    from fabhal import meshes
+
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "cache"))
+    monkeypatch.setattr(meshes, "_CONTACT_CACHE", {})
+    built: list[str] = []
+    first = grid(part("Mug"), lambda: built.append("built"))
+    monkeypatch.setattr(meshes, "_CONTACT_CACHE", {})
+    again = grid(part("Mug"), lambda: built.append("built"))
+    assert built == ["built"]
+    assert again is not first and np.array_equal(again.values, first.values)  # type: ignore[attr-defined]
 
 
 @pytest.mark.parametrize("name", ["Mug", "DoubleHook", "BasketBase"])
