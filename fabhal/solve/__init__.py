@@ -365,12 +365,21 @@ def _turned(model: Model, connection: Connection) -> Model:
 def _solved_turned(
     turned: Model, options: SolveOptions, connection: Connection, why: str = "it does not hang at rest"
 ) -> Solution | None:
-    """The design turned over at `connection` (`_turned`), if it solves; None otherwise."""
-    if time.monotonic() > options.deadline:
-        return None
-    options.report(f"{why}; trying {connection.a} -- {connection.b} turned over")
-    other = _solve_once(turned, options, None)
-    return other if other.status == "solved" else None
+    """The design turned over at `connection` (`_turned`), if it solves; None
+    otherwise. Where it falls apart from its first start it is tried from the
+    next seeds' too (FALL_RETRIES), as `solve` tries a design: its first start
+    may be at fault (three chains from ceiling hooks with one turned over fell
+    apart from two starts and hung level from the third)."""
+    for seed in range(options.seed, options.seed + 1 + FALL_RETRIES):
+        if time.monotonic() > options.deadline:
+            return None
+        options.report(f"{why}; trying {connection.a} -- {connection.b} turned over")
+        other = _solve_once(turned, replace(options, seed=seed), None)
+        if other.status == "solved":
+            return other
+        if not other.falls:
+            return None  # it holds together but not at rest: another start is no likelier to
+    return None
 
 
 def _aligned(model: Model, options: SolveOptions, result: Solution) -> Solution | None:

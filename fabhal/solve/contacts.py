@@ -92,11 +92,14 @@ class Pair:
     building: Callable[[], None] | None = None  # told before the obstacle's grid is first built
     added: Index = field(default_factory=lambda: np.zeros(0, dtype=int))  # the check's points in `points`
     hull: bool = False  # against the obstacle's convex hull (`Pairs.hulls`), not its surface
+    environment: bool = False  # the obstacle is an environment: its grid is read smooth (`grid`)
 
     @cached_property
     def grid(self) -> DistanceGrid:
-        """In the obstacle's frame (built once per machine: fabhal/meshes.py)."""
-        return (hull_grid if self.hull else contact_grid)(self.shape, self.building)
+        """In the obstacle's frame (built once per machine: fabhal/meshes.py);
+        an environment's read smooth (fabhal/kinematics/contact.py)."""
+        grid = (hull_grid if self.hull else contact_grid)(self.shape, self.building)
+        return _smooth_grid(grid) if self.environment else grid
 
     def with_check(self, added: Index) -> Pair:
         """The pair with the check's points `added` (indices into `check`) joining
@@ -261,7 +264,10 @@ def contact_pairs(model: Model, report: Callable[[str], None] | None = None) -> 
                 )
             spec = model.parts[obstacle].spec
             building = None if report is None else _telling(report, model.parts[obstacle].type_name)
-            pairs.append(Pair(part, obstacle, *kept[key], spec, boxes[obstacle], building))
+            environment = model.parts[obstacle].environment
+            pairs.append(
+                Pair(part, obstacle, *kept[key], spec, boxes[obstacle], building, environment=environment)
+            )
     point_balls = {part: _ball_of_points(points[part]) for part in movable}
     return Pairs(
         tuple(pairs),
@@ -289,6 +295,23 @@ def _telling(report: Callable[[str], None], name: str) -> Callable[[], None]:
 def _ball_of_points(points: Array) -> Array:
     centre = (points.min(axis=0) + points.max(axis=0)) / 2
     return np.append(centre, np.linalg.norm(points - centre, axis=1).max())
+
+
+# an environment's grid read smooth, one per grid (each keeps its own look-up tables),
+# by the id of the grid it reads (kept alive here: the ids are never reused)
+_SMOOTH: dict[int, tuple[DistanceGrid, DistanceGrid]] = {}
+
+
+def _smooth_grid(grid: DistanceGrid) -> DistanceGrid:
+    """`grid` read smooth. Parts rest on the environment: on a trilinear grid a
+    resting point's settle ends on a cell face, where the depth's derivative
+    jumps and no gradient holds (the diaper caddy's strap on a seat back, 9.6 mm
+    cells: its settles crept there until they stalled). Movable parts keep the
+    trilinear reading, exact at the samples: their walls are as thin as their
+    cells (a mug's 2.2 mm on 2 mm), and the spline would thin them."""
+    if id(grid) not in _SMOOTH:
+        _SMOOTH[id(grid)] = (grid, replace(grid, smooth=True))
+    return _SMOOTH[id(grid)][1]
 
 
 def _ball_of_box(box: Array) -> Array:
