@@ -560,24 +560,38 @@ def test_a_loop_keeps_the_order_its_closure_found_on_a_shared_rod(tmp_path: Path
     widths apart (the S-hook's 4 mm wire and the handle's, 8 mm in all: the
     spacing rule, to 1e-6 mm).
 
-    Where it settles the S-hook hangs swung along the rod with its lower hook
-    jammed in the handle, and the balance needs the handle to pull it up
-    (0.085 N of its 0.106 N weight; the rod takes the rest): this was once
-    `solved`. A contact only presses, so the S-hook lifts off the handle:
-    E512 at the handle's connection, `falls_apart` (other starts do not
-    close the loop, and an open loop holds nothing)."""
-    result = solve_text(tmp_path, MUG_ON_ROD_AND_HOOK)
+    The default way round (pinned `noflip`) the S-hook hangs swung along the
+    rod with its lower hook jammed in the handle, and the balance needs the
+    handle to pull it up (about 0.1 N of its 0.106 N weight; the rod takes
+    the rest): this was once `solved`. A contact only presses, so the S-hook
+    lifts off the handle: E512 at the handle's connection, `falls_apart`,
+    its help naming `flip` there. Left open, the solver turns that connection
+    over (N507): the S-hook's lower hook then lies in the handle from above
+    and the hack hangs at rest, its loop closed and its contacts on the rod
+    as far apart."""
+
+    def contacts_apart(solution: Solution) -> float:
+        model = solution.model
+        on_rod = [k for k, j in enumerate(model.joints) if model.parts[j.b.part].name == "rod"]
+        points = model.connection_points(model.forward(solution.x))[on_rod]
+        return float(abs(points[0][0] - points[1][0]))
+
+    handle = "connect mug.hook -- s1.hook1"
+    pinned = MUG_ON_ROD_AND_HOOK.replace(handle, f"{handle} noflip")
+    result = solve_text(tmp_path, pinned)
     assert result.status == "falls_apart", result.diagnostics
     (lifts,) = [d for d in result.diagnostics if d.code == "E512"]
     assert lifts.span is not None and lifts.span.line == 5  # connect mug.hook -- s1.hook1
+    assert lifts.help is not None and "written with `flip` hangs the hack at rest" in lifts.help
     solution = result.solution
     (lift,) = solution.falls
     assert 0.0 < lift.pull < float(weight_newtons(solution.masses)[solution.model.part_index("s1")])
-    assert solution.residual < 1e-6
-    model = solution.model
-    on_rod = [k for k, j in enumerate(model.joints) if model.parts[j.b.part].name == "rod"]
-    points = model.connection_points(model.forward(solution.x))[on_rod]
-    assert abs(points[0][0] - points[1][0]) >= 8.0 - 1e-6
+    assert solution.residual < 1e-6 and contacts_apart(solution) >= 8.0 - 1e-6
+    turned = solve_text(tmp_path, MUG_ON_ROD_AND_HOOK)
+    assert turned.status == "solved", turned.diagnostics
+    (note,) = [d for d in turned.diagnostics if d.code == "N507"]
+    assert note.span is not None and note.span.line == 5
+    assert turned.solution.residual < 1e-6 and contacts_apart(turned.solution) >= 8.0 - 1e-6
 
 
 def test_a_loop_that_puts_two_parts_in_one_place_is_e423(tmp_path: Path) -> None:
