@@ -46,7 +46,14 @@ from fabhal.solve.forces import (
     weight_newtons,
 )
 from fabhal.solve.hanging import hanging_start
-from fabhal.solve.spacing import Spacing, spacing_constraints, spacing_values, spread, stopped_turns
+from fabhal.solve.spacing import (
+    Spacing,
+    half_width,
+    spacing_constraints,
+    spacing_values,
+    spread,
+    stopped_turns,
+)
 from fabhal.solve.steps import (
     FRICTION,
     FRICTION_SMOOTHING_MM,
@@ -1533,10 +1540,14 @@ def _verify(
         values = problem.limit_values(x[free])
         rows.append(problem.limit_jacobian()[values < 1e-6])
     inside = np.array([k for k in range(len(free)) if k not in resting], dtype=int)
-    force = gradient.copy()
-    if rows and len(inside):
-        # the same change of variables as the gradient
-        force = unbalanced_force(gradient, np.vstack(rows) / per_mm, inside)
+    constraint = np.vstack(rows) / per_mm if rows else None  # the same change of variables as the gradient
+
+    def unbalanced(gradient: Array) -> Array:
+        if constraint is None or not len(inside):
+            return gradient.copy()
+        return unbalanced_force(gradient, constraint, inside)
+
+    force = unbalanced(gradient)
     stationarity = float(np.abs(force[inside]).max()) if len(inside) else 0.0
     falls: list[Fall | Lean] = []
     for k, end in resting.items():
@@ -1552,7 +1563,9 @@ def _verify(
         # on the very tip of an open end that no friction holds, what is not pushed back
         # inside comes off at the slightest sway, even unpushed (a hook's tip at its lowest)
         on_the_tip = is_open and i not in holding and not (pushed and not outward)
-        if (outward and pushed and is_open) or on_the_tip:
+        if ((outward and pushed and is_open) or on_the_tip) and not _stopped_past(
+            problem, energy, x, k, end, unbalanced, weight
+        ):
             falls.append(Fall(joint.index, i, end, _falling_part(model, joint, model.variables[i].side)))
         elif (
             outward and not dof.ends_hold and abs(force[k]) > LEAN_CARRIES and not _in_a_corner(problem, x, i)
@@ -1561,6 +1574,34 @@ def _verify(
             falls.append(Lean(joint.index, i, end, float(abs(force[k])), part))
     at_bound = tuple(sorted(int(free[k]) for k in resting))
     return stationarity, at_bound, tuple(falls)
+
+
+def _stopped_past(
+    problem: Problem,
+    energy: Energy,
+    x: Array,
+    k: int,
+    end: str,
+    unbalanced: Callable[[Array], Array],
+    weight: float,
+) -> bool:
+    """Whether free DoF `k`, resting on an open `end`, would be pushed back
+    inside (by more than the tolerance) before the part on it has gone past
+    that end by its own half width (`half_width`: an S-hook's wire radius, 2
+    mm), so that it still rings what it is on: what it touches stops it there
+    (the contact springs push back), and it does not come off at that end (an
+    S-hook slid to the foot of a headrest post stands on the seat). Nothing
+    past a hook's tip does."""
+    model = problem.model
+    i = int(problem.free[k])
+    joint = model.joints[model.variables[i].joint]
+    on = model.side_of(i)
+    guest = joint.b if joint.a is on else joint.a
+    beyond = x.copy()
+    beyond[i] += (-1.0 if end == "min" else 1.0) * half_width(joint, guest) / problem.scale[k]
+    force = unbalanced(energy(beyond)[1][problem.free] / problem.scale / weight)[k]
+    inward = force < 0 if end == "min" else force > 0
+    return bool(inward and abs(force) > EQUILIBRIUM_TOLERANCE)
 
 
 def _in_a_corner(problem: Problem, x: Array, lean: int) -> bool:

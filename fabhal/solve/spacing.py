@@ -51,7 +51,7 @@ def spacing_constraints(model: Model, x0: Array) -> list[Spacing]:
                 continue
             entries = shares.setdefault((host.part, host.primitive.name), [])
             if all(other != guest.part for _, other, _ in entries):  # first connection per neighbouring part
-                entries.append((slide, guest.part, _half_width(joint, guest)))
+                entries.append((slide, guest.part, half_width(joint, guest)))
     constraints = []
     for (part, name), entries in shares.items():
         length = model.parts[part].spec.primitive(name).params["length"]  # type: ignore[union-attr]
@@ -61,7 +61,7 @@ def spacing_constraints(model: Model, x0: Array) -> list[Spacing]:
     return constraints
 
 
-def _half_width(joint: Joint, guest: Side) -> float:
+def half_width(joint: Joint, guest: Side) -> float:
     """How far a part reaches along the primitive it is on, each way from its
     connection point: half its thickness across, or half the length of a sleeve
     threaded on it (held at its middle: fabhal/model.py `threaded`)."""

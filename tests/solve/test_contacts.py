@@ -730,3 +730,49 @@ def test_a_crossing_is_measured_within_one_touching_region(
         found = Checked(np.zeros(len(pairs)), {k: deep})
         monkeypatch.setattr(contacts_module, "check", lambda *_, found=found: found)
         assert [round(span, 6) for *_, span in crossings(model, x, pairs)] == expected
+
+
+HEADREST_CHAIN = """\
+{environment}
+s1 = DoubleHook()
+s2 = DoubleHook()
+mug = Mug()
+connect s1.hook2 -- {post}
+connect s2.hook2 -- s1.hook1
+connect mug.hook -- s2.hook1
+target mug at (50, 650, 650)
+"""
+
+
+def test_a_hook_at_the_foot_of_a_post_stands_on_what_the_post_goes_into(tmp_path: Path) -> None:
+    """A mug on two S-hooks hung from a car seat's headrest post, behind the
+    seat. The post is vertical and open at both ends (37 mm of it shows; its
+    lower end is where it goes into the seat): the whole weight, 350 + 2 x
+    10.8 g = 371.6 g, 3.645 N, pulls the upper S-hook down along it, and
+    friction (0.3 x its normal force on a vertical post, a sideways push
+    far below the weight) does not hold it, so it slides to the post's foot,
+    t = 0. There it does not come off: a wire's radius (2 mm) further down
+    the S-hook would be 2 mm into the seat's round top edge, whose springs
+    push back with up to 10 x the weight (the whole weight sinks one point
+    0.2 mm), so the seat stops it while its wire still rings the post:
+    solved, the S-hook on the end and touching the seat. The same post in
+    the air (no seat): the S-hook slides off its end, E501 at its line."""
+    from tests.solve.test_physics import solve_text  # (it imports this module's programs)
+
+    seat = HEADREST_CHAIN.format(environment="environment seat = CarSeat() at (0, 0, 0)", post="seat.rod1")
+    result = solve_text(tmp_path, seat)
+    assert result.status == "solved", [d.message for d in result.diagnostics]
+    solution = result.solution
+    model = solution.model
+    (t,) = [i for i, v in enumerate(model.variables) if v.name == "seat.rod1.t"]
+    assert solution.x[t] == pytest.approx(0.0, abs=1e-6)  # on the open end
+    s1, seat_part = model.part_index("s1"), model.part_index("seat")
+    assert any({c.part, c.rests_on} == {s1, seat_part} for c in solution.contacts)
+    in_the_air = HEADREST_CHAIN.format(
+        environment="environment post = Rod(length: 37, radius: 5.7) at (50.8, 556.9, 763) rot (0, 0, 180)",
+        post="post",
+    )
+    falls = solve_text(tmp_path, in_the_air)
+    assert falls.status == "falls_apart"
+    (off,) = [d for d in falls.diagnostics if d.code == "E501"]
+    assert "slides off the end of rod `post`" in off.message and off.span is not None and off.span.line == 5
