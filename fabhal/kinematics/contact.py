@@ -54,15 +54,23 @@ class DistanceGrid:
         would; a contact needs only those (most points of a part lie far from
         any surface: a hoop in a room). Smooth: where the 27 samples the
         spline weighs (with weights that are all positive) are positive."""
+        _, index, within = self._located(points)
         if self.smooth:
-            nearest = np.floor((points - self.origin) / self.spacing + 0.5).astype(int)
-            within = np.all((nearest >= 1) & (nearest < self._last_cell), axis=1)
-            nearest = np.clip(nearest, 1, self._last_cell - 1)
+            nearest = np.clip(index, 1, self._last_cell - 1)
             return within & (self._least_around[nearest[:, 0], nearest[:, 1], nearest[:, 2]] <= 0.0)
-        corner = np.floor((points - self.origin) / self.spacing).astype(int)
-        within = np.all((corner >= 0) & (corner < self._last_cell), axis=1)
-        block = np.clip(corner, 0, self._last_cell - 1) // BLOCK_CELLS
+        block = np.clip(index, 0, self._last_cell - 1) // BLOCK_CELLS
         return within & (self._block_least[block[:, 0], block[:, 1], block[:, 2]] <= 0.0)
+
+    def _located(self, points: Array) -> tuple[Array, Array, Array]:
+        """Points in cells of the grid (N, 3), the index each is read from (N,
+        3): trilinearly its cell's least corner, smooth its nearest node; and
+        (N,) whether all the samples it is read from lie in the grid."""
+        cell = (points - self.origin) / self.spacing
+        if self.smooth:
+            index = np.floor(cell + 0.5).astype(int)
+            return cell, index, np.all((index >= 1) & (index < self._last_cell), axis=1)
+        index = np.floor(cell).astype(int)
+        return cell, index, np.all((index >= 0) & (index < self._last_cell), axis=1)
 
     @cached_property
     def _last_cell(self) -> Array:
@@ -118,17 +126,17 @@ class DistanceGrid:
 
     def sample(self, points: Array) -> tuple[Array, Array]:
         """(N, 3) points in the grid's frame -> (N,) distances and (N, 3)
-        gradients (trilinear, or `_sample_smooth`). Outside the grid: +inf and zero."""
-        if self.smooth:
-            return self._sample_smooth(points)
-        cell = (points - self.origin) / self.spacing
-        corner = np.floor(cell).astype(int)
-        inside = np.all((corner >= 0) & (corner < self._last_cell), axis=1)
+        gradients (trilinear, or `_spline`). Outside the grid (smooth: within
+        half a cell of its edge too): +inf and zero."""
+        cell, index, inside = self._located(points)
         distance = np.full(len(points), np.inf)
         gradient = np.zeros((len(points), 3))
         if not inside.any():
             return distance, gradient
-        c = corner[inside]
+        if self.smooth:
+            distance[inside], gradient[inside] = self._spline(cell[inside], index[inside])
+            return distance, gradient
+        c = index[inside]
         u = cell[inside] - c
         corners = self._flat[(c @ self._strides)[:, None] + self._corner_steps].reshape(-1, 2, 2, 2)
         ux, uy, uz = u[:, 0, None, None], u[:, 1, None], u[:, 2]
@@ -144,23 +152,14 @@ class DistanceGrid:
         gradient /= self.spacing
         return distance, gradient
 
-    def _sample_smooth(self, points: Array) -> tuple[Array, Array]:
+    def _spline(self, cell: Array, node: Array) -> tuple[Array, Array]:
         """The quadratic B-spline over the nearest node's 3 x 3 x 3 samples:
         weights 1/2 (1/2 - t)^2, 3/4 - t^2, 1/2 (1/2 + t)^2 along each axis (t:
         the offset from the node, in cells). It reproduces a linear field (a
         flat face) exactly and smooths a curved one by about h^2 / 8 times its
         Laplacian, as trilinear reading errs between nodes (the seat backs' 9.6
-        mm cells over a 50 mm round: 0.2 to 0.5 mm); its gradient is continuous. Within
-        half a cell of the grid's edge and beyond: +inf and zero."""
-        cell = (points - self.origin) / self.spacing
-        nearest = np.floor(cell + 0.5).astype(int)
-        inside = np.all((nearest >= 1) & (nearest < self._last_cell), axis=1)
-        distance = np.full(len(points), np.inf)
-        gradient = np.zeros((len(points), 3))
-        if not inside.any():
-            return distance, gradient
-        node = nearest[inside]
-        t = cell[inside] - node  # (n, 3) in [-1/2, 1/2)
+        mm cells over a 50 mm round: 0.2 to 0.5 mm); its gradient is continuous."""
+        t = cell - node  # (n, 3) in [-1/2, 1/2)
         weight = np.stack([0.5 * (0.5 - t) ** 2, 0.75 - t**2, 0.5 * (0.5 + t) ** 2], axis=2)  # (n, axis, 3)
         slope = np.stack([t - 0.5, -2.0 * t, t + 0.5], axis=2)
         around = self._flat[(node @ self._strides)[:, None] + self._around_steps].reshape(-1, 3, 3, 3)
@@ -170,12 +169,16 @@ class DistanceGrid:
         along_x = np.einsum("nabc,nb,nc->na", around, wy, wz)
         along_y = np.einsum("nabc,na,nc->nb", around, wx, wz)
         along_z = np.einsum("nabc,na,nb->nc", around, wx, wy)
-        distance[inside] = np.einsum("na,na->n", along_x, wx)
-        gradient[inside, 0] = np.einsum("na,na->n", along_x, slope[:, 0])
-        gradient[inside, 1] = np.einsum("nb,nb->n", along_y, slope[:, 1])
-        gradient[inside, 2] = np.einsum("nc,nc->n", along_z, slope[:, 2])
-        gradient /= self.spacing
-        return distance, gradient
+        distance = np.einsum("na,na->n", along_x, wx)
+        gradient = np.stack(
+            [
+                np.einsum("na,na->n", along_x, slope[:, 0]),
+                np.einsum("nb,nb->n", along_y, slope[:, 1]),
+                np.einsum("nc,nc->n", along_z, slope[:, 2]),
+            ],
+            axis=1,
+        )
+        return distance, gradient / self.spacing
 
 
 def signed_distance_grid(components: list[tuple[Array, Array]], low: Array, high: Array) -> DistanceGrid:
