@@ -380,12 +380,13 @@ def _solved_turned(
     for seed in range(options.seed, options.seed + 1 + FALL_RETRIES):
         if time.monotonic() > options.deadline:
             return None
-        options.report(f"{why}; trying {connection.a} -- {connection.b} turned over")
+        again = f", from seed {seed}" if seed != options.seed else ""
+        options.report(f"{why}; trying {connection.a} -- {connection.b} turned over{again}")
         other = _solve_once(turned, replace(options, seed=seed), None)
         if other.status == "solved":
             return other
         if not other.falls:
-            return None  # it holds together but not at rest: another start is no likelier to
+            return None  # it holds together but not at rest: retried only where it falls, as a design is
     return None
 
 
