@@ -17,9 +17,11 @@ equilibrium check measures it: a fraction of the weight per mm of motion)
 times FORCE_AS_MM; the unknowns are all the free DoFs, the choices among
 them. Gauss-Newton on that least-squares problem (fabhal/optimize.py): the
 target's Jacobian exact, the force's from the Lagrangian's Hessian (in
-closed form, fabhal/solve/energy.py; while a contact touches, by forward
-differences of the exact energy gradient, a gradient per DoF), kept up to
-date between those by Broyden's secant updates (one gradient per step); the force's
+closed form, fabhal/solve/energy.py; while a contact touches, what the
+springs nearly know, `Energy.nearly`: all but the obstacle's curvature under
+the points; by forward differences of the exact energy gradient, a gradient
+per DoF, only where no closed form is given), kept up to date between those
+by Broyden's secant updates (one gradient per step); the force's
 weight is raised in stages (a stiff start is ill-conditioned and stalls).
 A force within the equilibrium tolerance costs about a millimetre. Its
 answer only proposes the choices: step 2 settles from it with them held
@@ -109,23 +111,24 @@ def aim(
         force[carried] = 0.0
         return force
 
-    exact = problem.free_hessian(energy)
+    known = problem.free_hessian(energy, nearly=True)
 
     def differenced(v: Array, force: Array) -> Array:
         """The force's derivative: from the Lagrangian's Hessian in closed form
-        where the energy has one, or else forward differences of its exact
+        where the energy has one (nearly: a touching spring's leaves out the
+        obstacle's curvature), or else forward differences of its exact
         gradient (a gradient per DoF). Along loops the force is the gradient
         projected off the constraints' rows C (per mm, the moving DoFs), with
         multipliers mu (force = g + C^T mu); its derivative is that projection
         of the Lagrangian's Hessian (the multipliers lambda = -weight x mu), up
         to a term in the force itself, which vanishes at rest."""
-        if exact is not None:
+        if known is not None:
             rows: Array | None = None
             multipliers: Array = np.zeros(0)
             if model.closures:
                 rows = (problem.closure_jacobian(v) / per_mm)[:, moving]
                 multipliers = -weight * np.linalg.lstsq(rows.T, -weighed(v), rcond=None)[0].astype(float)
-            hessian = exact(v, multipliers)
+            hessian = known(v, multipliers)
             if hessian is not None:
                 change = hessian[moving] / per_mm[moving, None] / weight
                 if rows is not None:

@@ -504,7 +504,38 @@ def with_contacts(model: Model, energy: Energy, pairs: Pairs, weight: float) -> 
         touching = _inside(model, model.forward(x, with_twists=True), pairs)
         return None if len(touching.depth) else np.zeros((len(x), len(x)))
 
-    return energy.plus(total, hessian)
+    def nearly(x: Array) -> Array:
+        fwd = model.forward(x, with_twists=True)
+        return spring_hessian(model, x, fwd, pairs, _inside(model, fwd, pairs), stiffness)
+
+    return energy.plus(total, hessian, nearly)
+
+
+def spring_hessian(
+    model: Model, x: Array, fwd: Forward, pairs: Pairs, touching: Touching, stiffness: Array
+) -> Array:
+    """The springs' Hessian but for the obstacles' curvature under the points:
+    Gauss-Newton's k (dd/dx)^T (dd/dx) for each point's depth d, plus its push
+    held constant as a load on the points (`Model.load_hessian`; the reaction
+    on a movable obstacle likewise)."""
+    n = len(x)
+    if not len(touching.depth):
+        return np.zeros((n, n))
+    assert fwd.twists is not None
+    k = stiffness[touching.pair]
+    push = (k * touching.depth)[:, None] * touching.normal  # on the part, outwards
+    parts, obstacles = pairs.parts[touching.pair], pairs.obstacles[touching.pair]
+    at = np.concatenate([touching.world, np.ones((len(k), 1))], axis=1)
+    loads = np.zeros((len(model.parts), 3, 4))  # the pushes' f (x) (X, 1): their potential is -f . X
+    np.add.at(loads, parts, -push[:, :, None] * at[:, None, :])
+    np.add.at(loads, obstacles, push[:, :, None] * at[:, None, :])
+    rate = (
+        angular_velocities(fwd.twists) @ np.cross(touching.world, touching.normal).T
+        + fwd.twists[:, :3, 3] @ touching.normal.T
+    )  # (n, M): how fast each DoF moves each point along its way out
+    moves = model.layout.moves
+    outwards = (moves[:, parts].astype(float) - moves[:, obstacles]) * rate  # -d depth / dx
+    return model.load_hessian(x, fwd, loads) + (outwards * k) @ outwards.T
 
 
 def penetration(model: Model, x: Array, pairs: Pairs) -> tuple[Array, Array]:

@@ -208,12 +208,12 @@ class Problem:
             exact_hessian=self.free_hessian(energy),
         )
 
-    def free_hessian(self, energy: Energy) -> LagrangianHessian | None:
+    def free_hessian(self, energy: Energy, nearly: bool = False) -> LagrangianHessian | None:
         """Over the free DoFs, given the loops' multipliers (six per loop, as
         `closure`): the Hessian of the energy less multipliers x closure
         constraints (the Lagrangian's); None where the energy has no closed form
-        (always, or at that v)."""
-        whole = energy.hessian
+        (always, or at that v). `nearly`: from the energy's `nearly`."""
+        whole = energy.nearly if nearly else energy.hessian
         if whole is None:
             return None
         model, block = self.model, np.ix_(self.free, self.free)
@@ -397,7 +397,7 @@ def potential(model: Model, masses: Array, centres: Array) -> Energy:
         loads[:, 2, 3] = weights
         return model.load_hessian(x, fwd, loads)
 
-    return Energy(energy, hessian)
+    return Energy(energy, hessian, hessian)
 
 
 def with_friction(

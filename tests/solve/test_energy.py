@@ -131,6 +131,36 @@ def test_while_a_spring_touches_the_hessian_is_measured(tmp_path: Path) -> None:
     np.testing.assert_array_equal(energy.hessian(away), gravity.hessian(away))
 
 
+def test_what_a_touching_spring_nearly_knows_is_exact_on_a_flat_wall(tmp_path: Path) -> None:
+    """The mug resting against the wall again: the Hessian the aim uses there
+    (`Energy.nearly`: each point's k (dd/dx)^T (dd/dx) and its push held as a
+    load, leaving out only the obstacle's curvature under the point) is the
+    springs' whole Hessian on a flat face, whose distance is linear (the
+    smooth reading reproduces it exactly): it matches central differences of
+    the exact gradient as gravity's does, to 1e-4 of the largest entry (the
+    differences' own error; the springs' stiffness makes the entries large),
+    and it is gravity's own where no spring touches."""
+    program = tmp_path / "mug.fhl"
+    program.write_text(MUG_BY_A_WALL)
+    result = api.solve(program)
+    assert result.solution is not None and result.solution.contacts
+    model, x = result.solution.model, result.solution.x
+    masses, centres = _mass_table(model)
+    world = contact_pairs(model).against({i for i, part in enumerate(model.parts) if part.environment})
+    gravity = potential(model, masses, centres)
+    energy = with_contacts(model, gravity, world, _weight(masses))
+    assert energy.nearly is not None and gravity.hessian is not None
+    per_mm = mm_per_unit(model)
+    numeric = _numeric_jacobian(lambda at: energy(at)[1], x, per_mm)
+    nearly = energy.nearly(x)
+    assert not np.allclose(nearly, gravity.hessian(x))  # the springs count
+    np.testing.assert_allclose(nearly, numeric, atol=1e-4 * np.abs(numeric).max())
+    spin = next(i for i, v in enumerate(model.variables) if v.name == "rod.rod.spin")
+    away = x.copy()
+    away[spin] += 30.0 if result.solution.frames[model.part_index("mug")][1, 3] < 0 else -30.0
+    np.testing.assert_array_equal(energy.nearly(away), gravity.hessian(away))
+
+
 def test_a_sum_knows_its_hessian_only_when_every_term_does() -> None:
     """A term without a closed form (the pull towards the target), or one
     without it at some x (a touching spring): the sum has none there, and the
@@ -144,3 +174,9 @@ def test_a_sum_knows_its_hessian_only_when_every_term_does() -> None:
     assert unknown.plus(lambda u: (0.0, u), lambda u: np.eye(len(u))).hessian is None
     assert quadratic.plus(lambda u: (0.0, u), None).hessian is None
     assert nowhere.plus(lambda u: (0.0, u), lambda u: np.eye(len(u))).hessian(x) is None  # type: ignore[misc]
+    # what they nearly know: a term's own where it has none exact everywhere, else its exact one
+    spring = nowhere.plus(lambda u: (0.0, u), lambda u: None, lambda u: 5 * np.eye(len(u)))
+    assert spring.nearly is None  # `nowhere` knows nothing nearly
+    near = Energy(quadratic.value_and_gradient, quadratic.hessian, quadratic.hessian)  # type: ignore[arg-type]
+    assert near.plus(lambda u: (0.0, u), lambda u: None, lambda u: 5 * np.eye(len(u))).nearly(x)[0, 0] == 7.0  # type: ignore[misc]
+    assert near.plus(lambda u: (0.0, u), lambda u: np.eye(len(u))).nearly(x)[0, 0] == 3.0  # type: ignore[misc]
