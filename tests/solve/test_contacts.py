@@ -749,9 +749,9 @@ def test_a_hook_at_the_foot_of_a_post_stands_on_what_the_post_goes_into(tmp_path
     seat. The post is vertical and open at both ends (37 mm of it shows; its
     lower end is where it goes into the seat): the whole weight, 350 + 2 x
     10.8 g = 371.6 g, 3.645 N, pulls the upper S-hook down along it, and
-    friction does not hold it (0.3 x the post's sideways push on the hook,
-    about 6 N with the mug hanging out behind: 1.8 N), so it slides to the
-    post's foot, t = 0. There it does not come off: a wire's radius (2 mm) further down
+    friction cannot hold it (at most 0.3 x the post's whole push on the hook,
+    6.0 N here with the mug hanging out behind: 1.8 N, under the 3.6 N), so
+    it slides to the post's foot, t = 0. There it does not come off: a wire's radius (2 mm) further down
     the S-hook would be 2 mm into the seat's round top edge, whose springs
     push back with up to 10 x the weight (the whole weight sinks one point
     0.2 mm), so the seat stops it while its wire still rings the post:
