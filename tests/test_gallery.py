@@ -236,14 +236,15 @@ def test_demo_ring_hangs_below_the_rod() -> None:
 
 
 def test_diaper_caddy_hangs_between_its_two_hook_chains() -> None:
-    """Between its chains, well below them, and upright within 10 degrees: its
-    handles rest on the seat backs and a bottom corner may lean on a seat (a
-    contact of a few newtons, a few degrees of turn; 5.3 to 5.6 measured)."""
+    """Between its chains, well below them, and turned within 10 degrees of its
+    request (itself tilted 18 degrees): its handles rest on the seat backs
+    and a bottom corner may lean on a seat (a contact of a few newtons, a few
+    degrees of turn; 5.3 measured)."""
     result = solved("diaper_caddy")
     left, right, caddy = (position(result, p) for p in ("s3", "s4", "caddy"))
     assert left[0] < caddy[0] < right[0]
     assert caddy[2] < min(left[2], right[2]) - 100
-    assert tilt_deg(result, "caddy") < 10.0
+    assert result.solution.target_errors()[1] < 10.0
 
 
 def test_paper_towel_roll_sits_on_the_broom_below_the_eye_hooks() -> None:

@@ -10,9 +10,9 @@ A contact spring touching an obstacle knows its Hessian only in part (the
 obstacle's curvature under the point is the distance grid's, which a
 difference measures and a closed form would leave out: the diaper caddy's
 hooks rest on the seat backs' rounded tops), so while a spring touches, the
-Hessian is measured where it must be exact (the stability test, BFGS's
-start), and the part it knows (`Energy.nearly`, within 7e-4 of the
-differences on the caddy) serves the aim's derivatives.
+Hessian is measured where it must be exact (the stability test), and the
+part it knows (`Energy.nearly`, within 7e-4 of the differences on the caddy)
+serves the aim's derivatives and BFGS's start.
 """
 
 from __future__ import annotations

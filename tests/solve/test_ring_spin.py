@@ -89,7 +89,9 @@ def test_a_hoop_on_three_chains_hangs_level_where_the_chains_end(tmp_path: Path)
 def test_without_the_spin_the_hoop_hangs_level_only_with_a_chain_turned_over(tmp_path: Path) -> None:
     """The reference's ring keeps the contact on its inner line: to hold the
     tube of a level hoop, a hook must hold it from inside. Written the default
-    way round (pinned `noflip` at the ceiling hooks) the hack falls apart: a
+    way round (pinned `noflip` at the ceiling hooks and between the S-hooks:
+    left open there, the solver may turn a lower S-hook over, which hangs it
+    too) the hack falls apart: a
     lower S-hook slides off the tip of the upper one (E501) and contacts
     would have to pull (E512), the hoop's own E512 naming the flag that lets
     the ring turn (`spin: true`). The first error's help names what would
@@ -102,7 +104,8 @@ def test_without_the_spin_the_hoop_hangs_level_only_with_a_chain_turned_over(tmp
     beyond the reference's 45) so that the lower arcs reach the tube's inner
     line from above. Tolerance: 2 mm and 0.5 degrees (the three chains'
     small differences of twist)."""
-    pinned = WELDED_HOOP + THREE_CHAINS.replace("-- c[i].hook", "-- c[i].hook noflip") + LEVEL_AT_826_9
+    chains = THREE_CHAINS.replace("-- c[i].hook", "-- c[i].hook noflip")
+    pinned = WELDED_HOOP + chains.replace("-- upper[i].hook1", "-- upper[i].hook1 noflip") + LEVEL_AT_826_9
     result = solve_text(tmp_path, pinned)
     assert result.status == "falls_apart"
     first = next(d for d in result.diagnostics if d.is_error)
