@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -9,8 +10,9 @@ import pytest
 
 from fabhal import api
 from fabhal.meshes import mass_properties
+from fabhal.model import Model
 from fabhal.solve import _mass_table, _weight
-from fabhal.solve.contacts import _inside, contact_pairs, with_contacts
+from fabhal.solve.contacts import Pairs, _inside, contact_pairs, with_contacts
 from fabhal.solve.energy import Energy
 from fabhal.solve.forces import friction_slides
 from fabhal.solve.steps import Problem, mm_per_unit, potential, with_friction
@@ -107,39 +109,21 @@ def test_the_lagrangians_hessian_matches_differences_of_its_gradient(program: st
     np.testing.assert_allclose(exact, exact.T, atol=1e-12 * np.abs(exact).max())
 
 
-def test_while_a_spring_touches_the_hessian_is_measured(tmp_path: Path) -> None:
-    """The mug rests against the wall: a point inside it, whose obstacle's
-    curvature only the distance grid knows, so no closed form is given there
-    (the optimiser differences); swung 30 degrees off the wall, none touches
-    and the springs add nothing to gravity's."""
-    program = tmp_path / "mug.fhl"
-    program.write_text(MUG_BY_A_WALL)
-    result = api.solve(program)
-    assert result.solution is not None and result.solution.contacts
-    model, x = result.solution.model, result.solution.x
-    masses, centres = _mass_table(model)
-    pairs = contact_pairs(model)
-    world = pairs.against({i for i, part in enumerate(model.parts) if part.environment})
-    gravity = potential(model, masses, centres)
-    energy = with_contacts(model, gravity, world, _weight(masses))
-    assert energy.hessian is not None and gravity.hessian is not None
-    assert energy.hessian(x) is None
-    spin = next(i for i, v in enumerate(model.variables) if v.name == "rod.rod.spin")
-    away = x.copy()
-    away[spin] += 30.0 if result.solution.frames[model.part_index("mug")][1, 3] < 0 else -30.0
-    assert not len(_inside(model, model.forward(away), world).depth)
-    np.testing.assert_array_equal(energy.hessian(away), gravity.hessian(away))
+@dataclass(frozen=True)
+class MugByTheWall:
+    """The mug resting against the wall, solved: where it rests (`x`), swung
+    30 degrees off the wall (`away`: nothing touches), gravity's energy and
+    it with the springs against the environment (`pairs`)."""
+
+    model: Model
+    x: np.ndarray
+    away: np.ndarray
+    pairs: Pairs
+    gravity: Energy
+    energy: Energy
 
 
-def test_what_a_touching_spring_nearly_knows_is_exact_on_a_flat_wall(tmp_path: Path) -> None:
-    """The mug resting against the wall again: the Hessian the aim uses there
-    (`Energy.nearly`: each point's k (dd/dx)^T (dd/dx) and its push held as a
-    load, leaving out only the obstacle's curvature under the point) is the
-    springs' whole Hessian on a flat face, whose distance is linear (the
-    smooth reading reproduces it exactly): it matches central differences of
-    the exact gradient as gravity's does, to 1e-4 of the largest entry (the
-    differences' own error; the springs' stiffness makes the entries large),
-    and it is gravity's own where no spring touches."""
+def mug_by_the_wall(tmp_path: Path) -> MugByTheWall:
     program = tmp_path / "mug.fhl"
     program.write_text(MUG_BY_A_WALL)
     result = api.solve(program)
@@ -148,17 +132,42 @@ def test_what_a_touching_spring_nearly_knows_is_exact_on_a_flat_wall(tmp_path: P
     masses, centres = _mass_table(model)
     world = contact_pairs(model).against({i for i, part in enumerate(model.parts) if part.environment})
     gravity = potential(model, masses, centres)
-    energy = with_contacts(model, gravity, world, _weight(masses))
-    assert energy.nearly is not None and gravity.hessian is not None
-    per_mm = mm_per_unit(model)
-    numeric = _numeric_jacobian(lambda at: energy(at)[1], x, per_mm)
-    nearly = energy.nearly(x)
-    assert not np.allclose(nearly, gravity.hessian(x))  # the springs count
-    np.testing.assert_allclose(nearly, numeric, atol=1e-4 * np.abs(numeric).max())
     spin = next(i for i, v in enumerate(model.variables) if v.name == "rod.rod.spin")
     away = x.copy()
     away[spin] += 30.0 if result.solution.frames[model.part_index("mug")][1, 3] < 0 else -30.0
-    np.testing.assert_array_equal(energy.nearly(away), gravity.hessian(away))
+    return MugByTheWall(model, x, away, world, gravity, with_contacts(model, gravity, world, _weight(masses)))
+
+
+def test_while_a_spring_touches_the_hessian_is_measured(tmp_path: Path) -> None:
+    """The mug rests against the wall: a point inside it, whose obstacle's
+    curvature only the distance grid knows, so no closed form is given there
+    (the optimiser differences); swung 30 degrees off the wall, none touches
+    and the springs add nothing to gravity's."""
+    mug = mug_by_the_wall(tmp_path)
+    energy, gravity = mug.energy, mug.gravity
+    assert energy.hessian is not None and gravity.hessian is not None
+    assert energy.hessian(mug.x) is None
+    assert not len(_inside(mug.model, mug.model.forward(mug.away), mug.pairs).depth)
+    np.testing.assert_array_equal(energy.hessian(mug.away), gravity.hessian(mug.away))
+
+
+def test_what_a_touching_spring_nearly_knows_is_exact_on_a_flat_wall(tmp_path: Path) -> None:
+    """The mug resting against the wall again: the Hessian the aim and BFGS's
+    start use there (`Energy.nearly`: each point's k (dd/dx)^T (dd/dx) and
+    its push held as a load, leaving out only the obstacle's curvature under
+    the point) is the springs' whole Hessian on a flat face, whose distance
+    is linear (the smooth reading reproduces it exactly): it matches central
+    differences of the exact gradient as gravity's does, to 1e-4 of the
+    largest entry (the differences' own error; the springs' stiffness makes
+    the entries large), and it is gravity's own where no spring touches."""
+    mug = mug_by_the_wall(tmp_path)
+    energy, gravity = mug.energy, mug.gravity
+    assert energy.nearly is not None and gravity.hessian is not None
+    numeric = _numeric_jacobian(lambda at: energy(at)[1], mug.x, mm_per_unit(mug.model))
+    nearly = energy.nearly(mug.x)
+    assert not np.allclose(nearly, gravity.hessian(mug.x))  # the springs count
+    np.testing.assert_allclose(nearly, numeric, atol=1e-4 * np.abs(numeric).max())
+    np.testing.assert_array_equal(energy.nearly(mug.away), gravity.hessian(mug.away))
 
 
 def test_a_sum_knows_its_hessian_only_when_every_term_does() -> None:
