@@ -22,10 +22,6 @@ from fabhal.kinematics.frames import Array
 GRID_POINTS = 500_000
 FINEST_CELL_MM = 2.0
 BAND_CELLS = 4.0  # see signed_distance_grid
-# `could_be_inside` looks at blocks of this many cells a side: the point's own cell (its
-# least corner, one value per grid point); blocks of 4 let through points up to 4 cells
-# from the surface, whose look-ups cost the caddy's solve 0.3 s of 4.8
-BLOCK_CELLS = 1
 NEAREST_SAMPLES = 4  # of which the one facing the point gives its side
 
 
@@ -47,30 +43,26 @@ class DistanceGrid:
         return bool(np.linalg.norm(centre - np.clip(centre, self.origin, high)) <= radius)
 
     def could_be_inside(self, points: Array) -> Array:
-        """(N,) bool: False where a point is certainly outside: every corner
-        value of the BLOCK_CELLS-cell block its cell lies in is positive, so the
-        trilinear distance there is too. Exact, not an estimate: `sample` of the
-        points it clears gives negative distances exactly where `sample` of all
-        would; a contact needs only those (most points of a part lie far from
-        any surface: a hoop in a room). Smooth: where the 27 samples the
-        spline weighs (with weights that are all positive) are positive."""
+        """(N,) bool: False where a point is certainly outside: every sample it
+        is read from (its cell's 8 corners; smooth, its nearest node's 27) is
+        positive, and the weights are too, so its distance is. Exact, not an
+        estimate: `sample` of the points it clears gives negative distances
+        exactly where `sample` of all would; a contact needs only those (most
+        points of a part lie far from any surface: a hoop in a room). Looking
+        at a wider block (4 cells a side) let through points up to 4 cells
+        from the surface, whose look-ups cost the caddy's solve 0.3 s of 4.8."""
         _, index, within = self._located(points)
-        if self.smooth:
-            nearest = np.clip(index, 1, self._last_cell - 1)
-            return within & (self._least_around[nearest[:, 0], nearest[:, 1], nearest[:, 2]] <= 0.0)
-        block = np.clip(index, 0, self._last_cell - 1) // BLOCK_CELLS
-        return within & (self._block_least[block[:, 0], block[:, 1], block[:, 2]] <= 0.0)
+        read = np.clip(index, 0, self._last_cell)  # any index where not `within`: cleared anyway
+        return within & (self._least_read[read[:, 0], read[:, 1], read[:, 2]] <= 0.0)
 
     def _located(self, points: Array) -> tuple[Array, Array, Array]:
         """Points in cells of the grid (N, 3), the index each is read from (N,
         3): trilinearly its cell's least corner, smooth its nearest node; and
         (N,) whether all the samples it is read from lie in the grid."""
         cell = (points - self.origin) / self.spacing
-        if self.smooth:
-            index = np.floor(cell + 0.5).astype(int)
-            return cell, index, np.all((index >= 1) & (index < self._last_cell), axis=1)
-        index = np.floor(cell).astype(int)
-        return cell, index, np.all((index >= 0) & (index < self._last_cell), axis=1)
+        index = np.floor(cell + 0.5 if self.smooth else cell).astype(int)
+        first, last = self._offsets[0], self._offsets[-1]
+        return cell, index, np.all((index + first >= 0) & (index + last <= self._last_cell), axis=1)
 
     @cached_property
     def _last_cell(self) -> Array:
@@ -89,39 +81,30 @@ class DistanceGrid:
         return np.array([ny * nz, nz, 1])
 
     @cached_property
-    def _corner_steps(self) -> Array:
-        """(8,) a cell's eight corners as steps in `_flat` from its first, [x][y][z]."""
-        x, y, z = self._strides
-        return np.array([a * x + b * y + e * z for a in (0, 1) for b in (0, 1) for e in (0, 1)])
+    def _offsets(self) -> tuple[int, ...]:
+        """The samples a point is read from, along each axis, from its index
+        (`_located`): trilinearly its cell's two corners, smooth its nearest
+        node and the two beside it."""
+        return (-1, 0, 1) if self.smooth else (0, 1)
 
     @cached_property
-    def _block_least(self) -> Array:
-        """The least value over each block's corners: block b covers the cells
-        b * B .. b * B + B - 1, whose corners run to b * B + B (shared with the next)."""
+    def _read_steps(self) -> Array:
+        """(8 or 27,) the samples a point is read from as steps in `_flat` from
+        its index, [x][y][z]."""
+        x, y, z = self._strides
+        return np.array(
+            [a * x + b * y + e * z for a in self._offsets for b in self._offsets for e in self._offsets]
+        )
+
+    @cached_property
+    def _least_read(self) -> Array:
+        """The least of the samples read from each index (`_offsets`; past the
+        grid's last node, its last)."""
         least = self.values
         for axis in range(3):
             n = least.shape[axis]
-            starts = np.arange(0, n - 1, BLOCK_CELLS)
-            inner = np.minimum.reduceat(least, starts, axis=axis)  # b * B .. b * B + B - 1
-            ends = np.minimum(starts + BLOCK_CELLS, n - 1)
-            least = np.minimum(inner, np.take(least, ends, axis=axis))  # and the shared corner
-        return least
-
-    @cached_property
-    def _around_steps(self) -> Array:
-        """(27,) a node's 3 x 3 x 3 neighbourhood as steps in `_flat`, [x][y][z]."""
-        x, y, z = self._strides
-        return np.array([a * x + b * y + e * z for a in (-1, 0, 1) for b in (-1, 0, 1) for e in (-1, 0, 1)])
-
-    @cached_property
-    def _least_around(self) -> Array:
-        """The least value over each node's 3 x 3 x 3 neighbourhood."""
-        least = self.values
-        for axis in range(3):
-            n = least.shape[axis]
-            before = np.take(least, np.maximum(np.arange(n) - 1, 0), axis=axis)
-            after = np.take(least, np.minimum(np.arange(n) + 1, n - 1), axis=axis)
-            least = np.minimum(np.minimum(before, least), after)
+            shifted = [np.take(least, np.clip(np.arange(n) + o, 0, n - 1), axis=axis) for o in self._offsets]
+            least = np.minimum.reduce(shifted)
         return least
 
     def sample(self, points: Array) -> tuple[Array, Array]:
@@ -138,7 +121,7 @@ class DistanceGrid:
             return distance, gradient
         c = index[inside]
         u = cell[inside] - c
-        corners = self._flat[(c @ self._strides)[:, None] + self._corner_steps].reshape(-1, 2, 2, 2)
+        corners = self._flat[(c @ self._strides)[:, None] + self._read_steps].reshape(-1, 2, 2, 2)
         ux, uy, uz = u[:, 0, None, None], u[:, 1, None], u[:, 2]
         along_x = corners[:, 0] * (1 - ux) + corners[:, 1] * ux  # (n, 2, 2) over y, z
         along_y = along_x[:, 0] * (1 - uy) + along_x[:, 1] * uy  # (n, 2) over z
@@ -162,7 +145,7 @@ class DistanceGrid:
         t = cell - node  # (n, 3) in [-1/2, 1/2)
         weight = np.stack([0.5 * (0.5 - t) ** 2, 0.75 - t**2, 0.5 * (0.5 + t) ** 2], axis=2)  # (n, axis, 3)
         slope = np.stack([t - 0.5, -2.0 * t, t + 0.5], axis=2)
-        around = self._flat[(node @ self._strides)[:, None] + self._around_steps].reshape(-1, 3, 3, 3)
+        around = self._flat[(node @ self._strides)[:, None] + self._read_steps].reshape(-1, 3, 3, 3)
         wx, wy, wz = weight[:, 0], weight[:, 1], weight[:, 2]
         # each axis's weights against the other two's sums (einsum over three operands
         # and more loops naively)

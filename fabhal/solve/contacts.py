@@ -354,8 +354,8 @@ def _distances(
         points = first.check if check else first.points
         world = points @ part[:, :3, :3].transpose(0, 2, 1) + part[:, None, :3, 3]
         flat = ((world - obstacle[:, None, :3, 3]) @ obstacle[:, :3, :3]).reshape(-1, 3)
-        # only points within the obstacle's box, and in its grid's blocks that reach
-        # inside, can be inside it: the rest are not looked up (their distances stay +inf)
+        # only points within the obstacle's box, and read from a sample inside
+        # (`could_be_inside`), can be inside it: the rest are not looked up (their distances stay +inf)
         low, high = first.box
         looked.append((world, flat, obstacle, np.flatnonzero(((flat >= low) & (flat <= high)).all(axis=1))))
     distances = [np.full(len(flat), np.inf) for _, flat, _, _ in looked]

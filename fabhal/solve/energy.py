@@ -33,8 +33,8 @@ class Energy:
     holds; `hessian` itself is None when none ever does. `nearly(x)`: a
     second derivative at every x, exact where `hessian` is and close where
     it is not (a contact spring's but for the obstacle's curvature), for
-    derivatives that need not be exact (the aim's); None where a term has
-    none."""
+    derivatives that need not be exact (the aim's, BFGS's start); None where
+    a term has none."""
 
     value_and_gradient: ValueAndGradient
     hessian: Callable[[Array], Array | None] | None = None
