@@ -3,8 +3,10 @@ speed targets are read off `fabhal bench`, never timed in tests)."""
 
 from __future__ import annotations
 
+import importlib.util
 import json
 from pathlib import Path
+from typing import Any
 
 from fabhal import bench
 from tests.cli.test_check_command import fabhal
@@ -49,3 +51,43 @@ def test_bench_command_prints_the_table(tmp_path: Path) -> None:
 def test_bench_command_refuses_a_missing_program() -> None:
     run = fabhal("bench", "programs/nope.fhl")
     assert run.returncode == 2 and "cannot read programs/nope.fhl" in run.stderr
+
+
+def _sensitivity() -> object:
+    """bench/sensitivity.py as a module (bench/ is scripts, not a package)."""
+    spec = importlib.util.spec_from_file_location("sensitivity", REPO / "bench" / "sensitivity.py")
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_the_sensitivity_bench_moves_the_world_and_the_target_alike() -> None:
+    """Every environment's and the target's `at` moves by the shift along the
+    axis asked; parts, rotations and comments do not."""
+    sensitivity: Any = _sensitivity()
+    text = (
+        "# at (9, 9, 9) in a comment\n"
+        "environment wall = Wall() at (0, 10, -5)\n"
+        "mug = Mug()\n"
+        "connect mug.handle -- wall.hook\n"
+        "target mug at (1.5, 2, 3) rot (0, 90, 0)\n"
+    )
+    moved = sensitivity.moved(text, 1, 0.25)
+    assert "environment wall = Wall() at (0.0, 10.25, -5.0)" in moved
+    assert "target mug at (1.5, 2.25, 3.0) rot (0, 90, 0)" in moved
+    assert moved.splitlines()[0] == "# at (9, 9, 9) in a comment" and "mug = Mug()\n" in moved
+
+
+def test_a_hack_moved_with_its_world_hangs_the_same() -> None:
+    """The charger holder with its world and target moved 100 mm along x: the
+    same hack, so the same target errors. Tolerance 0.01 mm and degrees: only
+    rounding differs (each coordinate about 1e-13 mm), and a rest that is
+    not one of many in a flat valley does not move with it."""
+    sensitivity: Any = _sensitivity()
+    path = REPO / "programs" / "charger_holder.fhl"
+    text = path.read_text()
+    _, position, rotation = sensitivity.errors(path, text)
+    status, moved_position, moved_rotation = sensitivity.errors(path, sensitivity.moved(text, 0, 100.0))
+    assert status == "solved"
+    assert abs(moved_position - position) < 0.01 and abs(moved_rotation - rotation) < 0.01
