@@ -31,7 +31,8 @@ PLACED = re.compile(r"^(\s*(?:environment|target)\b[^#\n]*?\bat\s*\()([^)]*)(\))
 
 
 def moved(text: str, axis: int, shift: float) -> str:
-    """The program's text with every environment and the target moved by `shift` mm along `axis`."""
+    """The program's text with every environment and the target moved by `shift`
+    mm along `axis` (ValueError where a placement is not three numbers)."""
 
     def move(match: re.Match[str]) -> str:
         numbers = [float(value) for value in match.group(2).split(",")]
@@ -66,8 +67,13 @@ def main() -> int:
         if not PLACED.search(text):
             write(f"{path.stem:26s} nothing placed to move")
             continue
+        try:
+            shifted = [moved(text, axis, args.shift) for axis in range(3)]
+        except ValueError:
+            write(f"{path.stem:26s} placed by expressions, not numbers: not moved")
+            continue
         started = time.perf_counter()
-        runs = [errors(path, text)] + [errors(path, moved(text, axis, args.shift)) for axis in range(3)]
+        runs = [errors(path, program) for program in (text, *shifted)]
         positions, rotations = [run[1] for run in runs], [run[2] for run in runs]
         cells = [f"{p:7.2f} {r:6.2f}" + ("" if status == "solved" else "*") for status, p, r in runs]
         spread = f"{max(positions) - min(positions):7.2f} {max(rotations) - min(rotations):6.2f}"

@@ -8,6 +8,8 @@ import json
 from pathlib import Path
 from typing import Any
 
+import pytest
+
 from fabhal import bench
 from tests.cli.test_check_command import fabhal
 from tests.conftest import REPO
@@ -53,7 +55,7 @@ def test_bench_command_refuses_a_missing_program() -> None:
     assert run.returncode == 2 and "cannot read programs/nope.fhl" in run.stderr
 
 
-def _sensitivity() -> object:
+def _sensitivity() -> Any:
     """bench/sensitivity.py as a module (bench/ is scripts, not a package)."""
     spec = importlib.util.spec_from_file_location("sensitivity", REPO / "bench" / "sensitivity.py")
     assert spec is not None and spec.loader is not None
@@ -65,7 +67,7 @@ def _sensitivity() -> object:
 def test_the_sensitivity_bench_moves_the_world_and_the_target_alike() -> None:
     """Every environment's and the target's `at` moves by the shift along the
     axis asked; parts, rotations and comments do not."""
-    sensitivity: Any = _sensitivity()
+    sensitivity = _sensitivity()
     text = (
         "# at (9, 9, 9) in a comment\n"
         "environment wall = Wall() at (0, 10, -5)\n"
@@ -77,6 +79,8 @@ def test_the_sensitivity_bench_moves_the_world_and_the_target_alike() -> None:
     assert "environment wall = Wall() at (0.0, 10.25, -5.0)" in moved
     assert "target mug at (1.5, 2.25, 3.0) rot (0, 90, 0)" in moved
     assert moved.splitlines()[0] == "# at (9, 9, 9) in a comment" and "mug = Mug()\n" in moved
+    with pytest.raises(ValueError):
+        sensitivity.moved("environment wall = Wall() at (0, height, 0)\n", 0, 1.0)
 
 
 def test_a_hack_moved_with_its_world_hangs_the_same() -> None:
@@ -84,7 +88,7 @@ def test_a_hack_moved_with_its_world_hangs_the_same() -> None:
     same hack, so the same target errors. Tolerance 0.01 mm and degrees: only
     rounding differs (each coordinate about 1e-13 mm), and a rest that is
     not one of many in a flat valley does not move with it."""
-    sensitivity: Any = _sensitivity()
+    sensitivity = _sensitivity()
     path = REPO / "programs" / "charger_holder.fhl"
     text = path.read_text()
     _, position, rotation = sensitivity.errors(path, text)
