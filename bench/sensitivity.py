@@ -8,7 +8,8 @@ each number changes. A robust answer's target error stays within a hair of the
 program's own; where the settled rest is one of many in a flat valley (a long
 loop resting on the world), the rounding picks which one, and the error
 moves by millimetres. Prints each program's target errors (mm, degrees) per
-shift and their spread; results in bench/README.md.
+shift, their spread, and the range of the rests' potential energies (J:
+which of two rests is the lower); results in bench/README.md.
 """
 
 from __future__ import annotations
@@ -18,6 +19,7 @@ import re
 import sys
 import time
 from pathlib import Path
+from typing import Any
 
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE.parent))  # run from a checkout without installing
@@ -47,12 +49,14 @@ def write(line: str) -> None:
     sys.stdout.flush()
 
 
-def errors(path: Path, text: str) -> tuple[str, float, float]:
+def errors(path: Path, text: str) -> tuple[str, float, float, float]:
+    """Status, target errors (mm, degrees) and potential energy (J) of the program's solve."""
     result = api.solve(load_program(path, text))
-    if result.solution is None:
-        return result.status, float("nan"), float("nan")
-    position, rotation = result.solution.target_errors()  # type: ignore[attr-defined]
-    return result.status, position, rotation
+    solution: Any = result.solution
+    if solution is None:
+        return result.status, float("nan"), float("nan"), float("nan")
+    position, rotation = solution.target_errors()
+    return result.status, position, rotation, solution.energy
 
 
 def main() -> int:
@@ -61,7 +65,8 @@ def main() -> int:
     parser.add_argument("--shift", type=float, default=1e-6, help="how far the world moves (mm; 1e-6)")
     args = parser.parse_args()
     programs = args.programs or sorted(GALLERY.glob("*.fhl"))
-    write(f"{'program':26s} {'as written':>15s} {'x':>15s} {'y':>15s} {'z':>15s} {'spread':>15s}     s")
+    columns = ["as written", "x", "y", "z", "spread"]
+    write(f"{'program':26s} {' '.join(f'{c:>15s}' for c in columns)} {'J':>13s}     s")
     for path in programs:
         text = path.read_text()
         if not PLACED.search(text):
@@ -75,11 +80,14 @@ def main() -> int:
         started = time.perf_counter()
         runs = [errors(path, program) for program in (text, *shifted)]
         positions, rotations = [run[1] for run in runs], [run[2] for run in runs]
-        cells = [f"{p:7.2f} {r:6.2f}" + ("" if status == "solved" else "*") for status, p, r in runs]
+        cells = [f"{p:7.2f} {r:6.2f}" + ("" if status == "solved" else "*") for status, p, r, _ in runs]
+        energies = [run[3] for run in runs]
         spread = f"{max(positions) - min(positions):7.2f} {max(rotations) - min(rotations):6.2f}"
         seconds = time.perf_counter() - started
-        write(f"{path.stem:26s} {' '.join(f'{c:>15s}' for c in cells)} {spread:>15s} {seconds:5.1f}")
-    write("(mm and degrees from the request; * not solved; s: the four solves)")
+        lowest = f"{min(energies):.3f}-{max(energies):.3f}"
+        row = " ".join(f"{c:>15s}" for c in [*cells, spread])
+        write(f"{path.stem:26s} {row} {lowest:>13s} {seconds:5.1f}")
+    write("(mm and degrees from the request; * not solved; J: the rests' energies; s: the four solves)")
     return 0
 
 

@@ -91,7 +91,7 @@ def test_a_hack_moved_with_its_world_hangs_the_same() -> None:
     sensitivity = _sensitivity()
     path = REPO / "programs" / "charger_holder.fhl"
     text = path.read_text()
-    _, position, rotation = sensitivity.errors(path, text)
-    status, moved_position, moved_rotation = sensitivity.errors(path, sensitivity.moved(text, 0, 100.0))
+    _, position, rotation, _ = sensitivity.errors(path, text)
+    status, moved_position, moved_rotation, _ = sensitivity.errors(path, sensitivity.moved(text, 0, 100.0))
     assert status == "solved"
     assert abs(moved_position - position) < 0.01 and abs(moved_rotation - rotation) < 0.01
