@@ -83,15 +83,17 @@ def test_the_sensitivity_bench_moves_the_world_and_the_target_alike() -> None:
         sensitivity.moved("environment wall = Wall() at (0, height, 0)\n", 0, 1.0)
 
 
-def test_a_hack_moved_with_its_world_hangs_the_same() -> None:
-    """The charger holder with its world and target moved 100 mm along x: the
-    same hack, so the same target errors. Tolerance 0.01 mm and degrees: only
-    rounding differs (each coordinate about 1e-13 mm), and a rest that is
-    not one of many in a flat valley does not move with it."""
+@pytest.mark.parametrize("program", ["charger_holder", "mug_hanger", "closet_basket", "soap_bottle_holder"])
+def test_a_hack_moved_with_its_world_hangs_the_same(program: str) -> None:
+    """A gallery hack with its world and target moved 100 mm along x: the same
+    hack, so the same target errors. Tolerance 0.05 mm and 0.05 degrees: only
+    rounding differs (each coordinate about 1e-13 mm), and these rests are not
+    among many in a flat valley (bench/README.md item 73: they move by less
+    than 0.01 mm; the caddy's and the nook's move by millimetres)."""
     sensitivity = _sensitivity()
-    path = REPO / "programs" / "charger_holder.fhl"
+    path = REPO / "programs" / f"{program}.fhl"
     text = path.read_text()
     _, position, rotation, _ = sensitivity.errors(path, text)
     status, moved_position, moved_rotation, _ = sensitivity.errors(path, sensitivity.moved(text, 0, 100.0))
     assert status == "solved"
-    assert abs(moved_position - position) < 0.01 and abs(moved_rotation - rotation) < 0.01
+    assert abs(moved_position - position) < 0.05 and abs(moved_rotation - rotation) < 0.05
