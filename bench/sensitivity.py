@@ -9,7 +9,9 @@ program's own; where the settled rest is one of many in a flat valley (a long
 loop resting on the world), the rounding picks which one, and the error
 moves by millimetres. Prints each program's target errors (mm, degrees) per
 shift, their spread, and the range of the rests' potential energies (J:
-which of two rests is the lower); results in bench/README.md.
+which of two rests is the lower; measured from z = 0, so a large --shift
+moves them by the weight times the shift along z); results in
+bench/README.md.
 """
 
 from __future__ import annotations
