@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import shutil
 import subprocess
 from functools import cache
@@ -24,6 +25,21 @@ def all_fhl_files() -> list[Path]:
     """Every .fhl file the repository ships (library, gallery, docs examples)."""
     roots = [REPO / "stdlib_parts", REPO / "programs", REPO / "docs"]
     return sorted(p for root in roots for p in root.rglob("*.fhl"))
+
+
+def written_in_reverse(text: str, declarations: bool = False) -> str:
+    """A program's text with its connections (and, with `declarations`, its part
+    declarations) written in reverse order, each kind in its own lines' places."""
+    lines = text.splitlines()
+    kinds = [lambda line: line.startswith("connect ")]
+    if declarations:
+        kinds.append(lambda line: re.match(r"\w+ = \w+\(", line) is not None)
+    out = list(lines)
+    for kind in kinds:
+        rows = [i for i, line in enumerate(lines) if kind(line)]
+        for i, j in zip(rows, reversed(rows), strict=True):
+            out[i] = lines[j]
+    return "\n".join(out) + "\n"
 
 
 def assert_golden(actual: str, golden: Path) -> None:

@@ -8,7 +8,6 @@ effects asserted (hooks hundreds of mm apart, tilts of tens of degrees).
 
 from __future__ import annotations
 
-import re
 from functools import cache
 from typing import Any
 
@@ -18,7 +17,7 @@ import pytest
 from fabhal import api
 from fabhal.diagnostics import Severity
 from fabhal.load import load_program
-from tests.conftest import REPO
+from tests.conftest import REPO, written_in_reverse
 
 PROGRAMS = sorted(p.stem for p in (REPO / "programs").glob("*.fhl"))
 
@@ -266,19 +265,6 @@ def test_toothbrush_stands_above_the_counter() -> None:
     assert result.solution.target_errors()[0] < 5.0
 
 
-def _reversed_lines(text: str) -> str:
-    """The program with its part declarations and its connections each written
-    in reverse order."""
-    lines = text.splitlines()
-    declared = [i for i, line in enumerate(lines) if re.match(r"\w+ = \w+\(", line)]
-    connected = [i for i, line in enumerate(lines) if line.startswith("connect ")]
-    out = list(lines)
-    for rows in (declared, connected):
-        for i, j in zip(rows, reversed(rows), strict=True):
-            out[i] = lines[j]
-    return "\n".join(out) + "\n"
-
-
 @pytest.mark.parametrize("program", ["diaper_caddy", "reading_nook"])
 def test_the_order_of_lines_does_not_change_the_answer(program: str) -> None:
     """Issue 15: same program, same answer whatever the order of its lines. The
@@ -288,7 +274,7 @@ def test_the_order_of_lines_does_not_change_the_answer(program: str) -> None:
     connections canonically (the spanning tree's order), so the solve is the
     same computation: every DoF equal to the bit."""
     path = REPO / "programs" / f"{program}.fhl"
-    reordered = _reversed_lines(path.read_text())
+    reordered = written_in_reverse(path.read_text(), declarations=True)
     assert reordered != path.read_text()
     written, backwards = solved(program), api.solve(load_program(path, reordered))
     assert backwards.status == written.status == "solved"

@@ -16,7 +16,7 @@ import pytest
 
 from fabhal import api
 from fabhal.solve import Solution, _mass_table
-from tests.conftest import REPO
+from tests.conftest import REPO, written_in_reverse
 
 
 def solution_of(path: Path, two_step: bool = False) -> tuple[str, Solution, tuple[str, ...]]:
@@ -99,12 +99,7 @@ def test_the_aimed_demo_is_the_same_in_any_order_of_lines(tmp_path: Path) -> Non
     """The demo's connections written in reverse: the same aimed answer (the
     model orders connections canonically; 0.01 mm is far below the 117 mm the
     aim gains)."""
-    text = (REPO / "programs" / "demo.fhl").read_text()
-    lines = text.splitlines()
-    connects = [line for line in lines if line.startswith("connect ")]
-    start = lines.index(connects[0])
-    reordered = [*lines[:start], *reversed(connects), *lines[start + len(connects) :]]
-    (tmp_path / "demo.fhl").write_text("\n".join(reordered) + "\n")
+    (tmp_path / "demo.fhl").write_text(written_in_reverse((REPO / "programs" / "demo.fhl").read_text()))
     _, forwards, _ = solution_of(REPO / "programs" / "demo.fhl")
     _, backwards, _ = solution_of(tmp_path / "demo.fhl")
     assert np.linalg.norm(forwards.target_frame()[:3, 3] - backwards.target_frame()[:3, 3]) < 0.01

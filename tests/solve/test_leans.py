@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from fabhal import api
-from tests.conftest import REPO
+from tests.conftest import REPO, written_in_reverse
 from tests.solve.test_physics import solve_text
 
 
@@ -100,12 +100,8 @@ def test_the_alignment_chosen_does_not_depend_on_the_order_of_lines(tmp_path: Pa
     and the choice depends on where each way hangs, not on which is tried
     first)."""
     path = no_flip_program(tmp_path, written="", first="noflip")
-    lines = path.read_text().splitlines()
-    at = [i for i, line in enumerate(lines) if line.startswith("connect ")]
-    for i, line in zip(at, [lines[i] for i in reversed(at)], strict=True):
-        lines[i] = line
     reversed_path = tmp_path / "reversed.fhl"
-    reversed_path.write_text("\n".join(lines) + "\n")
+    reversed_path.write_text(written_in_reverse(path.read_text()))
     results = [api.solve(p) for p in (path, reversed_path)]
     notes = [next(d for d in r.diagnostics if d.code == "N507") for r in results]
     written = [q.read_text().splitlines() for q in (path, reversed_path)]
