@@ -81,13 +81,12 @@ def main() -> int:
             continue
         started = time.perf_counter()
         runs = [errors(path, program) for program in (text, *shifted)]
-        positions, rotations = [run[1] for run in runs], [run[2] for run in runs]
-        cells = [f"{p:7.2f} {r:6.2f}" + ("" if status == "solved" else "*") for status, p, r, _ in runs]
-        energies = [run[3] for run in runs]
-        spread = f"{max(positions) - min(positions):7.2f} {max(rotations) - min(rotations):6.2f}"
         seconds = time.perf_counter() - started
-        lowest = f"{min(energies):.3f}-{max(energies):.3f}"
+        _, positions, rotations, energies = zip(*runs, strict=True)
+        cells = [f"{p:7.2f} {r:6.2f}" + ("" if status == "solved" else "*") for status, p, r, _ in runs]
+        spread = f"{max(positions) - min(positions):7.2f} {max(rotations) - min(rotations):6.2f}"
         row = " ".join(f"{c:>15s}" for c in [*cells, spread])
+        lowest = f"{min(energies):.3f}-{max(energies):.3f}"
         write(f"{path.stem:26s} {row} {lowest:>13s} {seconds:5.1f}")
     write("(mm and degrees from the request; * not solved; J: the rests' energies; s: the four solves)")
     return 0
