@@ -135,6 +135,34 @@ class DistanceGrid:
         gradient /= self.spacing
         return distance, gradient
 
+    def sample_inside(self, points: Array) -> tuple[Array, Array]:
+        """`sample`, but gradients only where the distance is negative (elsewhere
+        zero): a contact needs the way out of the points inside only, and most
+        points looked up lie just outside (the caddy's handles beside the seat
+        backs: 8 of 494 inside), whose gradients were most of a look-up."""
+        distance = self.distance(points)
+        gradient = np.zeros((len(points), 3))
+        inside = distance < 0.0
+        if inside.any():
+            gradient[inside] = self.sample(points[inside])[1]
+        return distance, gradient
+
+    def distance(self, points: Array) -> Array:
+        """`sample`'s distances alone, by the same arithmetic (equal to the bit)."""
+        if not self.smooth:
+            return self.sample(points)[0]
+        cell, index, inside = self._located(points)
+        distance = np.full(len(points), np.inf)
+        if inside.any():
+            weight = _spline_weights(cell[inside] - index[inside])
+            along_x = np.einsum("nabc,nb,nc->na", self._around(index[inside]), weight[:, 1], weight[:, 2])
+            distance[inside] = np.einsum("na,na->n", along_x, weight[:, 0])
+        return distance
+
+    def _around(self, node: Array) -> Array:
+        """(n, 3, 3, 3) the samples around each node."""
+        return self._flat[(node @ self._strides)[:, None] + self._read_steps].reshape(-1, 3, 3, 3)
+
     def _spline(self, cell: Array, node: Array) -> tuple[Array, Array]:
         """The quadratic B-spline over the nearest node's 3 x 3 x 3 samples:
         weights 1/2 (1/2 - t)^2, 3/4 - t^2, 1/2 (1/2 + t)^2 along each axis (t:
@@ -143,9 +171,9 @@ class DistanceGrid:
         Laplacian, as trilinear reading errs between nodes (the seat backs' 9.6
         mm cells over a 50 mm round: 0.2 to 0.5 mm); its gradient is continuous."""
         t = cell - node  # (n, 3) in [-1/2, 1/2)
-        weight = np.stack([0.5 * (0.5 - t) ** 2, 0.75 - t**2, 0.5 * (0.5 + t) ** 2], axis=2)  # (n, axis, 3)
+        weight = _spline_weights(t)
         slope = np.stack([t - 0.5, -2.0 * t, t + 0.5], axis=2)
-        around = self._flat[(node @ self._strides)[:, None] + self._read_steps].reshape(-1, 3, 3, 3)
+        around = self._around(node)
         wx, wy, wz = weight[:, 0], weight[:, 1], weight[:, 2]
         # each axis's weights against the other two's sums (einsum over three operands
         # and more loops naively)
@@ -162,6 +190,13 @@ class DistanceGrid:
             axis=1,
         )
         return distance, gradient / self.spacing
+
+
+def _spline_weights(t: Array) -> Array:
+    """(n, 3) offsets from the nearest nodes (cells, in [-1/2, 1/2)) -> (n, axis,
+    3) the quadratic B-spline's weights of the node before, the node and the
+    one after, along each axis."""
+    return np.stack([0.5 * (0.5 - t) ** 2, 0.75 - t**2, 0.5 * (0.5 + t) ** 2], axis=2)
 
 
 def signed_distance_grid(components: list[tuple[Array, Array]], low: Array, high: Array) -> DistanceGrid:

@@ -341,7 +341,8 @@ def _distances(
     """For each group of pairs of one kind (the same points against the same
     grid, `_kinds`): their points (the check's if `check`) in the world (G,
     N, 3), their signed distances from the obstacle (G, N; +inf where not
-    looked up) and the distances' gradients in the world (G, N, 3). The
+    looked up) and the distances' gradients in the world (G, N, 3; only where
+    the distance is negative, and never for the check's points). The
     groups that look at one grid look it up together (the caddy's S-hooks and
     the caddy against the seat backs: one look-up, not two; each look-up
     costs as much as its points)."""
@@ -370,7 +371,10 @@ def _distances(
         owner = np.repeat(members, [len(looked[g][3]) for g in members])
         index = np.concatenate([looked[g][3] for g in members])
         near = grid.could_be_inside(boxed)
-        found, slopes = grid.sample(boxed[near])
+        if check:  # the check asks how deep, never the way out
+            found, slopes = grid.distance(boxed[near]), np.zeros((int(near.sum()), 3))
+        else:
+            found, slopes = grid.sample_inside(boxed[near])
         owner, index = owner[near], index[near]
         for g in members:
             mine = owner == g

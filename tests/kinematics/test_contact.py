@@ -48,6 +48,24 @@ def test_smooth_sampling_is_exact_on_a_linear_field() -> None:
     assert np.all(far == np.inf) and not none.any()
 
 
+@pytest.mark.parametrize("smooth", [False, True])
+def test_sampling_only_the_inside_keeps_every_distance_to_the_bit(smooth: bool) -> None:
+    """`sample_inside` is `sample` with the gradients of the points outside left
+    out: over random samples (about half of them negative), each distance is
+    the same float (== : contact decisions and depths must not move by a
+    rounding), each gradient of a point inside too, and outside it is zero."""
+    values = np.random.default_rng(0).normal(size=(9, 10, 11))
+    grid = DistanceGrid(np.zeros(3), 2.0, values, smooth=smooth)
+    points = np.random.default_rng(1).uniform(-1.0, 21.0, (400, 3))
+    distance, gradient = grid.sample(points)
+    only, inside_gradient = grid.sample_inside(points)
+    inside = distance < 0.0
+    assert 100 < inside.sum() < 300
+    assert np.array_equal(only, distance) and np.array_equal(grid.distance(points), distance)
+    assert np.array_equal(inside_gradient[inside], gradient[inside])
+    assert not inside_gradient[~inside].any()
+
+
 def test_the_smooth_gradient_is_the_distances_derivative_across_faces() -> None:
     """Over random samples (no smooth field behind them, the hardest case), at
     points on the faces where the smooth reading's pieces meet (x = 2 i + 1 mm
