@@ -155,8 +155,7 @@ class DistanceGrid:
         distance = np.full(len(points), np.inf)
         if inside.any():
             weight = _spline_weights(cell[inside] - index[inside])
-            along_x = np.einsum("nabc,nb,nc->na", self._around(index[inside]), weight[:, 1], weight[:, 2])
-            distance[inside] = np.einsum("na,na->n", along_x, weight[:, 0])
+            distance[inside] = _spline_distance(self._around(index[inside]), weight)[0]
         return distance
 
     def _around(self, node: Array) -> Array:
@@ -177,10 +176,9 @@ class DistanceGrid:
         wx, wy, wz = weight[:, 0], weight[:, 1], weight[:, 2]
         # each axis's weights against the other two's sums (einsum over three operands
         # and more loops naively)
-        along_x = np.einsum("nabc,nb,nc->na", around, wy, wz)
+        distance, along_x = _spline_distance(around, weight)
         along_y = np.einsum("nabc,na,nc->nb", around, wx, wz)
         along_z = np.einsum("nabc,na,nb->nc", around, wx, wy)
-        distance = np.einsum("na,na->n", along_x, wx)
         gradient = np.stack(
             [
                 np.einsum("na,na->n", along_x, slope[:, 0]),
@@ -197,6 +195,14 @@ def _spline_weights(t: Array) -> Array:
     3) the quadratic B-spline's weights of the node before, the node and the
     one after, along each axis."""
     return np.stack([0.5 * (0.5 - t) ** 2, 0.75 - t**2, 0.5 * (0.5 + t) ** 2], axis=2)
+
+
+def _spline_distance(around: Array, weight: Array) -> tuple[Array, Array]:
+    """The spline's (n,) distances from the samples `around` (n, 3, 3, 3) and the
+    weights (`_spline_weights`), and (n, 3) the samples summed over y and z (what
+    the x-derivative reads too): one arithmetic for `sample` and `distance`."""
+    along_x = np.einsum("nabc,nb,nc->na", around, weight[:, 1], weight[:, 2])
+    return np.einsum("na,na->n", along_x, weight[:, 0]), along_x
 
 
 def signed_distance_grid(components: list[tuple[Array, Array]], low: Array, high: Array) -> DistanceGrid:
