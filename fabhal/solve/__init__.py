@@ -21,6 +21,7 @@ from fabhal.kinematics.frames import Array
 from fabhal.kinematics.statics import MOMENT_ARM_MM, Wrenches, pressing
 from fabhal.meshes import mass_properties
 from fabhal.model import Joint, Model, Side, build_model, threaded
+from fabhal.optimize import Result
 from fabhal.solve import aim as aim_mod
 from fabhal.solve import reach
 from fabhal.solve import target as target_mod
@@ -905,6 +906,10 @@ def _settle(
     from its result with that contact too (a local correction, not a round
     of its own: from the start again it would find more elsewhere; the
     caddy's S-hook then lay 1.0 mm in a seat, E508).
+    A round whose first settle already misses contact goes on to the next
+    without its stability test, turn and friction rounds, which the next
+    round, from the start again, would throw away (the caddy's first two
+    rounds: 0.7 s of 4.2).
     A settle made to be compared with a `rival` ends after a round that falls
     apart or leans on a stop where the rival does not: it will not be kept,
     and the finer rounds, which only add contact, are the slow ones (the
@@ -912,17 +917,39 @@ def _settle(
     model = step1.model
     placed_inside = _parts_inside(model, x, pairs, masses)
     placed_through: frozenset[frozenset[int]] | None = None  # looked for only if needed: 0.05 s
-    for repeat in range(2, CONTACT_ROUNDS + 2):
-        springs = _springs(model, pairs, leaning)
-        settled = _settle_with(step1, x, masses, centres, goal, springs, thorough, leaning)
-        through = passing_through(model, settled.x, pairs)
+
+    def more_contact(at: Array) -> tuple[frozenset[frozenset[int]], dict[int, Array], Pairs]:
+        """Where a round's result at `at` needs more contact: the parts found
+        inside each other (or crossing), where the check's points found a part
+        inside what its springs act against, and the pairs refined there."""
+        nonlocal placed_through
+        through = passing_through(model, at, pairs)
         if through:
             if placed_through is None:
                 placed_through = passing_through(model, x, pairs)
             through -= placed_inside | placed_through
-        inside = (_parts_inside(model, settled.x, pairs, masses) - placed_inside) | through
-        missed = _missed(model, settled.x, pairs, leaning | inside)
-        refined = pairs.refined(missed).dense(through)
+        inside = (_parts_inside(model, at, pairs, masses) - placed_inside) | through
+        missed = _missed(model, at, pairs, leaning | inside)
+        return inside, missed, pairs.refined(missed).dense(through)
+
+    for repeat in range(2, CONTACT_ROUNDS + 2):
+        springs = _springs(model, pairs, leaning)
+        first = None
+        if rival is None and repeat <= CONTACT_ROUNDS:
+            # a round whose first settle already misses contact is settled again with it,
+            # from the start: its stability test, turn and friction would be thrown away
+            first = _first_settle(step1, x, masses, centres, springs)
+            if first is not None:
+                inside, missed, refined = more_contact(first[1])
+                if not (inside <= leaning and refined.size() == pairs.size()) and not step1.out_of_time():
+                    if tell is not None:
+                        tell(_contact_round_note(model, inside - leaning, missed, pairs, repeat))
+                    pairs, leaning = refined, leaning | inside
+                    continue
+        settled = _settle_with(
+            step1, x, masses, centres, goal, springs, thorough, leaning, None if first is None else first[0]
+        )
+        inside, missed, refined = more_contact(settled.x)
         if (inside <= leaning and refined.size() == pairs.size()) or step1.out_of_time():
             break
         if rival is not None and settled.falls and not rival.falls:
@@ -1043,6 +1070,53 @@ def _springs(model: Model, pairs: Pairs, leaning: frozenset[frozenset[int]]) -> 
     return pairs.against({i for i, part in enumerate(model.parts) if part.environment}, leaning)
 
 
+def _second_step(
+    step1: Problem, x: Array, masses: Array, centres: Array, pairs: Pairs
+) -> tuple[Problem, Energy, list[Slide]]:
+    """Step 2's problem from step 1's `x` (held DoFs stay, the rest and the
+    floors' slides move), its energy under gravity with the contact springs of
+    `pairs`, and the slides friction acts on."""
+    model = step1.model
+    held = {i for j in model.joints if j.held for i in j.a.dof_indices + j.b.dof_indices}
+    moving = {int(i) for i in step1.free if i not in held} | model.floor_slides()  # gravity slides those
+    movable = np.array(sorted(moving), dtype=int)
+    step2 = Problem(model, movable, x.copy(), step1.spacing, step1.deadline)
+    gravity = with_contacts(model, potential(model, masses, centres), pairs, _weight(masses))
+    return step2, gravity, [slide for slide in friction_slides(model) if set(slide.dofs) <= moving]
+
+
+def _friction_at(
+    step2: Problem,
+    gravity: Energy,
+    slides: list[Slide],
+    pairs: Pairs,
+    masses: Array,
+    centres: Array,
+    origin: Array,
+    at: Array,
+) -> tuple[Energy, Array]:
+    """The energy with friction on `slides` (from where the parts were placed,
+    `origin`) from the normal forces of the contacts at `at`; the resistances."""
+    model = step2.model
+    contacts = contacts_at(model, at, pairs, _weight(masses))
+    normal = normal_forces(model, at, _wrenches(step2, at, masses, centres, slides, contacts), slides)
+    resistance = FRICTION * normal / 1000.0  # N -> joules per mm of sliding
+    return with_friction(model, gravity, slides, resistance, origin), resistance
+
+
+def _first_settle(
+    step1: Problem, x: Array, masses: Array, centres: Array, pairs: Pairs
+) -> tuple[Result, Array] | None:
+    """`_settle_with`'s first settle from `x` (and where it ends, all DoFs);
+    None where nothing moves."""
+    step2, gravity, slides = _second_step(step1, x, masses, centres, pairs)
+    if not len(step2.free):
+        return None
+    energy = _friction_at(step2, gravity, slides, pairs, masses, centres, x, x)[0]
+    first = settle(step2, energy, x[step2.free], SETTLE_TOLERANCE * _weight(masses))
+    return first, step2.full(first.x)
+
+
 def _settle_with(
     step1: Problem,
     x: Array,
@@ -1052,39 +1126,33 @@ def _settle_with(
     pairs: Pairs,
     thorough: bool,
     leaning: frozenset[frozenset[int]],
+    first: Result | None = None,
 ) -> Settled:
     """Step 2 from step 1's `x`: held DoFs stay, the rest settle under gravity (with
     friction from where they start and the contact springs of `pairs`), stably,
     turned towards the request among equally low configurations, then verified
     at rest. Not `thorough`: settled and verified only, without the stability
-    test and the turn (for comparing)."""
+    test and the turn (for comparing). `first`: the first settle, made
+    already (`_first_settle`)."""
     model = step1.model
-    held = {i for j in model.joints if j.held for i in j.a.dof_indices + j.b.dof_indices}
-    moving = {int(i) for i in step1.free if i not in held} | model.floor_slides()  # gravity slides those
-    movable = np.array(sorted(moving), dtype=int)
-    step2 = Problem(model, movable, x.copy(), step1.spacing, step1.deadline)
+    step2, gravity, slides = _second_step(step1, x, masses, centres, pairs)
+    movable = step2.free
     weight = _weight(masses)
-    gravity = with_contacts(model, potential(model, masses, centres), pairs, weight)
-    slides = [slide for slide in friction_slides(model) if set(slide.dofs) <= moving]
     origin = x
 
     def with_friction_at(at: Array) -> tuple[Energy, Array]:
-        """The energy with friction from the normal forces of the contacts at `at`."""
-        contacts = contacts_at(model, at, pairs, weight)
-        normal = normal_forces(model, at, _wrenches(step2, at, masses, centres, slides, contacts), slides)
-        resistance = FRICTION * normal / 1000.0  # N -> joules per mm of sliding
-        return with_friction(model, gravity, slides, resistance, origin), resistance
+        return _friction_at(step2, gravity, slides, pairs, masses, centres, origin, at)
 
     energy, resistance = with_friction_at(x)
     at_rest = SETTLE_TOLERANCE * weight
     if not len(movable):
         pass  # nothing to settle: verified where it stands
     elif thorough:
-        x, curvature = _settle_stably(step2, energy, x, at_rest, weight)
+        x, curvature = _settle_stably(step2, energy, x, at_rest, weight, first)
         if not step2.out_of_time():
             x = _turn_towards_target(step2, energy, goal, x, at_rest, TARGET_PULL * weight, curvature)
     else:
-        x = step2.full(settle(step2, energy, x[movable], at_rest).x)
+        x = step2.full((first or settle(step2, energy, x[movable], at_rest)).x)
     for _ in range(FRICTION_ROUNDS):  # until friction agrees with the forces where it settled
         if not slides or step2.out_of_time():
             break
@@ -1442,14 +1510,16 @@ def _settle_stably(
     x: Array,
     at_rest: float,
     weight: float,
+    first: Result | None = None,
 ) -> tuple[Array, Array | None]:
-    """Settle; if the result is an unstable balance (the energy curves down along
-    the constraints), settle again from a nudge each way along the steepest way
-    down and keep the lowest energy. The nudged settles start near the first
-    result, so BFGS starts from the first settle's matrix; it is returned too."""
+    """Settle (unless `first` is that settle, made already); if the result is
+    an unstable balance (the energy curves down along the constraints),
+    settle again from a nudge each way along the steepest way down and keep
+    the lowest energy. The nudged settles start near the first result, so
+    BFGS starts from the first settle's matrix; it is returned too."""
     model, free = problem.model, problem.free
     low, high = problem.bounds()
-    first = settle(problem, energy, x[free], at_rest)
+    first = first or settle(problem, energy, x[free], at_rest)
     best = problem.full(first.x)
     best_energy = energy(best)[0]
     if problem.out_of_time():
