@@ -1152,7 +1152,7 @@ def _settle_with(
         if not step2.out_of_time():
             x = _turn_towards_target(step2, energy, goal, x, at_rest, TARGET_PULL * weight, curvature)
     else:
-        x = step2.full((first or settle(step2, energy, x[movable], at_rest)).x)
+        x = step2.full((first if first is not None else settle(step2, energy, x[movable], at_rest)).x)
     for _ in range(FRICTION_ROUNDS):  # until friction agrees with the forces where it settled
         if not slides or step2.out_of_time():
             break
@@ -1519,7 +1519,7 @@ def _settle_stably(
     BFGS starts from the first settle's matrix; it is returned too."""
     model, free = problem.model, problem.free
     low, high = problem.bounds()
-    first = first or settle(problem, energy, x[free], at_rest)
+    first = first if first is not None else settle(problem, energy, x[free], at_rest)
     best = problem.full(first.x)
     best_energy = energy(best)[0]
     if problem.out_of_time():
