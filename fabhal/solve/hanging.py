@@ -22,8 +22,9 @@ loops closed exactly from that point. Every stage is a few dozen Gauss-Newton
 or BFGS steps over the free DoFs, or a few hundred forward passes (0.2 s for
 the hoop's 108 DoFs).
 
-It is a start only where it reaches the target (GOOD_FIT): where nothing
-reaches the request, the closure from the defaults is as good a start as any,
+It is a start only where it reaches the target (GOOD_FIT), and is not closed
+where the tree alone, after (2), does not (the loops only constrain it more):
+where nothing reaches the request, the closure from the defaults is as good a start as any,
 and hung, the reading nook's balanced loops settle elsewhere (33 degrees from
 the request instead of 19).
 """
@@ -96,6 +97,10 @@ def hanging_start(
     on_the_path = [int(i) for i, moves in zip(free, moves_target, strict=True) if moves and int(i) in turning]
     x = _scanned(full(hung), on_the_path, lambda x: float(np.linalg.norm(_target_residual(model, goal, x))))
     x = full(_least_squares(target_rows, x[free], low, high, scale, deadline))
+    if float(np.linalg.norm(_target_residual(model, goal, x))) > GOOD_FIT:
+        # the tree alone does not bring the target to its frame from here: closing the
+        # loops, which only constrains it more, does not either (the reading nook: 0.1 s)
+        return None
     for k, j in enumerate(model.closures):
         closing = model.joints[j]
         turns = [i for i in closing.a.dof_indices + closing.b.dof_indices if i in turning]

@@ -10,6 +10,7 @@ import re
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 from fabhal import api
 from fabhal.primitives import make_primitive, ring_spin_stop_deg
@@ -147,6 +148,27 @@ def test_a_crumpled_closure_is_followed_by_the_hung_one() -> None:
     assert depth.max() > 10.0 and max(target_errors(first)) > 50.0
     assert closure_residual_mm(model, hung) < 1e-6
     assert max(target_errors(hung)) < 0.5
+
+
+def test_a_hung_start_whose_tree_misses_the_target_closes_no_loop(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The reading nook: hung under gravity and fitted with its loops open (the
+    spanning tree alone), its hoop stays 1.6 mm (and degrees as mm) from its
+    request, more than GOOD_FIT (0.5). Closing the loops only constrains the
+    tree further, so the hung start cannot reach the request either and is
+    not made (it was closed, 0.1 s, and then dropped): step 1's next start is
+    a random one, and the hung start's loop closure is never called (it
+    would raise here)."""
+    from fabhal.solve import hanging
+
+    def never(*_: object, **__: object) -> None:
+        raise AssertionError("the hung start closed its loops")
+
+    monkeypatch.setattr(hanging, "close_loops", never)
+    checked = api.check(REPO / "programs" / "reading_nook.fhl")
+    model = checked.model
+    assert model is not None
+    _, starts = step_one(model, 0, checked.report.loops.x, float("inf"))
+    assert len(list(starts)) >= 1  # the first start and the random ones whose loops close
 
 
 def test_the_hoop_on_twelve_chains_hangs_where_they_end() -> None:
