@@ -934,21 +934,20 @@ def _settle(
 
     for repeat in range(2, CONTACT_ROUNDS + 2):
         springs = _springs(model, pairs, leaning)
-        first = None
+        begun = None
         if rival is None and repeat <= CONTACT_ROUNDS:
             # a round whose first settle already misses contact is settled again with it,
             # from the start: its stability test, turn and friction would be thrown away
-            first = _first_settle(step1, x, masses, centres, springs)
-            if first is not None:
-                inside, missed, refined = more_contact(first[1])
+            begun = _first_settle(step1, x, masses, centres, springs)
+            if begun is not None:
+                two, first = begun
+                inside, missed, refined = more_contact(two.problem.full(first.x))
                 if not (inside <= leaning and refined.size() == pairs.size()) and not step1.out_of_time():
                     if tell is not None:
                         tell(_contact_round_note(model, inside - leaning, missed, pairs, repeat))
                     pairs, leaning = refined, leaning | inside
                     continue
-        settled = _settle_with(
-            step1, x, masses, centres, goal, springs, thorough, leaning, None if first is None else first[0]
-        )
+        settled = _settle_with(step1, x, masses, centres, goal, springs, thorough, leaning, begun)
         inside, missed, refined = more_contact(settled.x)
         if (inside <= leaning and refined.size() == pairs.size()) or step1.out_of_time():
             break
@@ -1070,19 +1069,31 @@ def _springs(model: Model, pairs: Pairs, leaning: frozenset[frozenset[int]]) -> 
     return pairs.against({i for i, part in enumerate(model.parts) if part.environment}, leaning)
 
 
-def _second_step(
-    step1: Problem, x: Array, masses: Array, centres: Array, pairs: Pairs
-) -> tuple[Problem, Energy, list[Slide]]:
-    """Step 2's problem from step 1's `x` (held DoFs stay, the rest and the
-    floors' slides move), its energy under gravity with the contact springs of
-    `pairs`, and the slides friction acts on."""
+@dataclass(frozen=True)
+class _StepTwo:
+    """Step 2's problem from step 1's configuration (held DoFs stay, the rest and
+    the floors' slides move), its energy under gravity with the contact springs
+    (`gravity`), the slides friction acts on, and the energy with their friction
+    from the normal forces where the parts were placed (`energy`, `resistance`)."""
+
+    problem: Problem
+    gravity: Energy
+    slides: list[Slide]
+    energy: Energy
+    resistance: Array
+
+
+def _second_step(step1: Problem, x: Array, masses: Array, centres: Array, pairs: Pairs) -> _StepTwo:
+    """Step 2 from step 1's `x`, with the contact springs of `pairs` (`_StepTwo`)."""
     model = step1.model
     held = {i for j in model.joints if j.held for i in j.a.dof_indices + j.b.dof_indices}
     moving = {int(i) for i in step1.free if i not in held} | model.floor_slides()  # gravity slides those
     movable = np.array(sorted(moving), dtype=int)
     step2 = Problem(model, movable, x.copy(), step1.spacing, step1.deadline)
     gravity = with_contacts(model, potential(model, masses, centres), pairs, _weight(masses))
-    return step2, gravity, [slide for slide in friction_slides(model) if set(slide.dofs) <= moving]
+    slides = [slide for slide in friction_slides(model) if set(slide.dofs) <= moving]
+    energy, resistance = _friction_at(step2, gravity, slides, pairs, masses, centres, x, x)
+    return _StepTwo(step2, gravity, slides, energy, resistance)
 
 
 def _friction_at(
@@ -1106,15 +1117,13 @@ def _friction_at(
 
 def _first_settle(
     step1: Problem, x: Array, masses: Array, centres: Array, pairs: Pairs
-) -> tuple[Result, Array] | None:
-    """`_settle_with`'s first settle from `x` (and where it ends, all DoFs);
-    None where nothing moves."""
-    step2, gravity, slides = _second_step(step1, x, masses, centres, pairs)
-    if not len(step2.free):
+) -> tuple[_StepTwo, Result] | None:
+    """Step 2 from `x` and its first settle, as `_settle_with` begins; None
+    where nothing moves."""
+    two = _second_step(step1, x, masses, centres, pairs)
+    if not len(two.problem.free):
         return None
-    energy = _friction_at(step2, gravity, slides, pairs, masses, centres, x, x)[0]
-    first = settle(step2, energy, x[step2.free], SETTLE_TOLERANCE * _weight(masses))
-    return first, step2.full(first.x)
+    return two, settle(two.problem, two.energy, x[two.problem.free], SETTLE_TOLERANCE * _weight(masses))
 
 
 def _settle_with(
@@ -1126,16 +1135,17 @@ def _settle_with(
     pairs: Pairs,
     thorough: bool,
     leaning: frozenset[frozenset[int]],
-    first: Result | None = None,
+    begun: tuple[_StepTwo, Result] | None = None,
 ) -> Settled:
     """Step 2 from step 1's `x`: held DoFs stay, the rest settle under gravity (with
     friction from where they start and the contact springs of `pairs`), stably,
     turned towards the request among equally low configurations, then verified
     at rest. Not `thorough`: settled and verified only, without the stability
-    test and the turn (for comparing). `first`: the first settle, made
-    already (`_first_settle`)."""
+    test and the turn (for comparing). `begun`: step 2 and its first settle,
+    made already from `x` (`_first_settle`)."""
     model = step1.model
-    step2, gravity, slides = _second_step(step1, x, masses, centres, pairs)
+    two, first = begun if begun is not None else (_second_step(step1, x, masses, centres, pairs), None)
+    step2, gravity, slides = two.problem, two.gravity, two.slides
     movable = step2.free
     weight = _weight(masses)
     origin = x
@@ -1143,7 +1153,7 @@ def _settle_with(
     def with_friction_at(at: Array) -> tuple[Energy, Array]:
         return _friction_at(step2, gravity, slides, pairs, masses, centres, origin, at)
 
-    energy, resistance = with_friction_at(x)
+    energy, resistance = two.energy, two.resistance
     at_rest = SETTLE_TOLERANCE * weight
     if not len(movable):
         pass  # nothing to settle: verified where it stands

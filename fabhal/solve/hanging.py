@@ -96,8 +96,13 @@ def hanging_start(
     moves_target = np.abs(target_rows(hung)[1]).max(axis=0) > 0.0
     on_the_path = [int(i) for i, moves in zip(free, moves_target, strict=True) if moves and int(i) in turning]
     x = _scanned(full(hung), on_the_path, lambda x: float(np.linalg.norm(_target_residual(model, goal, x))))
+
+    def reaches(x: Array) -> bool:
+        """Whether the target at x is within GOOD_FIT of its request."""
+        return float(np.linalg.norm(_target_residual(model, goal, x))) <= GOOD_FIT
+
     x = full(_least_squares(target_rows, x[free], low, high, scale, deadline))
-    if float(np.linalg.norm(_target_residual(model, goal, x))) > GOOD_FIT:
+    if not reaches(x):
         # the tree alone does not bring the target to its frame from here: closing the
         # loops, which only constrains it more, does not either (the reading nook: 0.1 s)
         return None
@@ -109,8 +114,7 @@ def hanging_start(
     closed = close_loops(model, seed, starts=1, x0=x, evaluations=REACH_EVALUATIONS, deadline=deadline)
     if not closed.closed:
         return None
-    reached = float(np.linalg.norm(_target_residual(model, goal, closed.x))) <= GOOD_FIT
-    return closed.x if reached else None
+    return closed.x if reaches(closed.x) else None
 
 
 def _scanned(x: Array, dofs: list[int], cost: Callable[[Array], float]) -> Array:
