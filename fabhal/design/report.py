@@ -33,15 +33,17 @@ def count_lines(search: DesignPlan, outcome: DesignOutcome, options: DesignOptio
     )
     solved = sum(1 for m in outcome.members if m.status == "solved")
     rejected = sum(1 for m in outcome.members if m.status == "rejected")
+    on_the_way = f" (partial designs dropped or set aside on the way: {pruned})" if pruned else ""
+    if not search.generated:  # nothing to solve: say which rules ended every partial design
+        connects = "connects the target to the environment"
+        return [f"no design with at most {options.max_parts} parts {connects}{on_the_way}"]
     passed = "passed every rule" if search.reaching else "are too short to reach the target, every one"
-    lines = [
-        f"{search.generated:,} designs with at most {options.max_parts} parts {passed}"
-        + (f" (partial designs dropped or set aside on the way: {pruned})" if pruned else ""),
+    return [
+        f"{search.generated:,} designs with at most {options.max_parts} parts {passed}{on_the_way}",
         f"solved {len(outcome.members)} of them, the most promising first, in {outcome.elapsed_s:.1f} s: "
         f"{solved} hang at rest, {rejected} rejected by the full check"
         + ("" if outcome.complete else " (stopped at the time limit)"),
     ]
-    return lines
 
 
 def table(outcome: DesignOutcome, top: int) -> Table:
@@ -64,12 +66,13 @@ def best_per_size(outcome: DesignOutcome) -> dict[int, MemberResult]:
     return dict(sorted(best.items()))
 
 
-def verdict(outcome: DesignOutcome, options: DesignOptions) -> str:
+def verdict(search: DesignPlan, outcome: DesignOutcome, options: DesignOptions) -> str:
     best = _best(outcome)
+    if best is None and not search.generated:
+        return "nothing to solve: the inventory's parts do not connect the target to the environment"
     if best is None:
-        return (
-            "no design could be solved: the inventory has no parts that connect the target to the environment"
-        )
+        return "no design could be solved: each was rejected by the full check or not reached in time"
+
     error = best.position_mm or 0.0
     if reaches(outcome, options):
         within = f"within {options.tolerance_mm:g} mm"
@@ -91,7 +94,7 @@ def print_summary(
             f"best with {size} part{'s' if size != 1 else ''}: {member.key}: {describe(member)}",
             highlight=False,
         )
-    console.print(verdict(outcome, options), highlight=False)
+    console.print(verdict(search, outcome, options), highlight=False)
 
 
 def to_json(search: DesignPlan, outcome: DesignOutcome, options: DesignOptions) -> dict[str, Any]:

@@ -102,6 +102,28 @@ def test_an_inventory_that_cannot_reach_says_how_far_it_falls_short(tmp_path: Pa
     assert "mm short" in verdict
 
 
+def test_an_inventory_that_cannot_connect_says_which_rules_stopped_it(tmp_path: Path) -> None:
+    """A phone (its edge 8 mm across) below a shower curtain rod, from S-hooks
+    and clips: no binder clip (3.5 mm) or clothes peg (7.8 mm) opens wide
+    enough, and the plastic clip that does (12 mm) stands on hemispheres, which
+    no hook holds. Nothing is left to solve, and the summary says so and which
+    rules ended the partial designs, instead of "0 designs ... every one"."""
+    (tmp_path / "phone.fhl").write_text(
+        "environment rod = ShowerCurtainRod() at (0, 0, 0)\n"
+        "phone = Phone()\n"
+        "target phone at (375, 127, 1900) rot (0, 0, 0)\n"
+    )
+    (tmp_path / "mine.toml").write_text("DoubleHook = 3\nClothesClip = 2\nPlasticClip = 1\nBinderClip = 2\n")
+    run = fabhal("design", str(tmp_path / "phone.fhl"), "--inventory", str(tmp_path / "mine.toml"), "-j", "1")
+    assert run.returncode == 1, run.stderr
+    summary = " ".join(run.stdout.split())  # rich folds long lines
+    assert "no design with at most 4 parts connects the target to the environment" in summary
+    assert "by the connectivity table (E401)" in summary and "by sizes that do not fit (E404)" in summary
+    assert "solved 0 of them" not in summary
+    verdict = "nothing to solve: the inventory's parts do not connect the target to the environment"
+    assert summary.endswith(verdict)
+
+
 def test_a_bad_inventory_or_spec_is_said_plainly(tmp_path: Path) -> None:
     (tmp_path / "bad.toml").write_text("SHook = 2\n")
     run = fabhal("design", str(MUG), "--inventory", str(tmp_path / "bad.toml"))
