@@ -52,6 +52,12 @@ def note(code: str, message: str, span: Span | None, help: str) -> Diagnostic:
     return Diagnostic(Severity.NOTE, code, message, span, help)
 
 
+def listed(names: Iterable[str]) -> str:
+    """Names as a message lists them: `a`, `b` and `c`."""
+    quoted = [f"`{name}`" for name in names]
+    return quoted[0] if len(quoted) == 1 else ", ".join(quoted[:-1]) + " and " + quoted[-1]
+
+
 class FabhalError(Exception):
     """Raised by a stage that cannot go on; carries what to tell the user."""
 

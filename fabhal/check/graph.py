@@ -4,7 +4,7 @@ part connected, the target reachable from an environment."""
 from __future__ import annotations
 
 from fabhal.check.context import CheckContext
-from fabhal.diagnostics import Diagnostic, Severity, error, warning
+from fabhal.diagnostics import Diagnostic, Severity, error, listed, note, warning
 from fabhal.source import Span
 
 
@@ -91,8 +91,71 @@ def check(ctx: CheckContext) -> list[Diagnostic]:
             )
         )
     problems.extend(_only_on_target(ctx, target_part))
+    if target_part is not None and target_part not in floating and target_part in connected:
+        problems.extend(_apart_from_the_target(ctx, target_part, set(floating)))
     problems.extend(_fixed_without_freedom(ctx))
     return problems
+
+
+def _apart_from_the_target(ctx: CheckContext, target: str, floating: set[str]) -> list[Diagnostic]:
+    """Parts that hang from an environment but are joined to the target only
+    through it (a second S-hook on the rod beside the chain): they hold nothing
+    toward the target. One note per such group, naming what it hangs from."""
+    program = ctx.program
+    if program.part(target).environment:  # E417 says what is wrong
+        return []
+    movable = {p.name for p in program.parts if not p.environment}
+    beside: dict[str, set[str]] = {name: set() for name in movable}
+    hangs_from: dict[str, set[str]] = {name: set() for name in movable}
+    for c in program.connections:
+        a, b = c.a.part, c.b.part
+        if a in movable and b in movable:
+            beside[a].add(b)
+            beside[b].add(a)
+        elif a in movable:
+            hangs_from[a].add(b)
+        elif b in movable:
+            hangs_from[b].add(a)
+    held = _reached(target, beside)
+    problems: list[Diagnostic] = []
+    seen: set[str] = set()
+    for part in program.parts:  # in the order written: the note points at a group's first part
+        name = part.name
+        if (
+            name not in movable
+            or name in held
+            or name in seen
+            or name in floating
+            or not beside[name] | hangs_from[name]
+        ):
+            continue
+        group = _reached(name, beside)
+        seen |= group
+        names = [p.name for p in program.parts if p.name in group]
+        environments = sorted({e for n in group for e in hangs_from[n]})
+        one = len(names) == 1
+        hang, they, them = ("hangs", "it", "it") if one else ("hang", "they", "them")
+        problems.append(
+            note(
+                "N419",
+                f"{listed(names)} {hang} from {listed(environments)} apart from the target `{target}`: "
+                f"{they} {'holds' if one else 'hold'} nothing toward it",
+                part.span,
+                f"connect {them} to what holds the target, or remove {them} (the target's parts may "
+                f"still rest against {them})",
+            )
+        )
+    return problems
+
+
+def _reached(start: str, beside: dict[str, set[str]]) -> set[str]:
+    """The movable parts joined to `start` without passing through an environment."""
+    reached, frontier = {start}, [start]
+    while frontier:
+        for other in beside[frontier.pop()] - reached:
+            reached.add(other)
+            frontier.append(other)
+    return reached
 
 
 def _fixed_without_freedom(ctx: CheckContext) -> list[Diagnostic]:

@@ -15,7 +15,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from fabhal.check.cycles import close_loops
-from fabhal.diagnostics import Diagnostic, Severity, error, warning
+from fabhal.diagnostics import Diagnostic, Severity, error, listed, warning
 from fabhal.elaborate import Connection
 from fabhal.kinematics.frames import Array
 from fabhal.kinematics.statics import MOMENT_ARM_MM, Wrenches, pressing
@@ -971,14 +971,14 @@ def _contact_round_note(
     lean on each other, and where the check's points found a part inside what
     its springs act against."""
     names = [p.name for p in model.parts]
-    leans = sorted(_listed([names[i] for i in sorted(both)]) for both in new_leaning)
+    leans = sorted(listed([names[i] for i in sorted(both)]) for both in new_leaning)
     inside: dict[str, list[str]] = {}
     for k in sorted(missed):
         if pairs.bodies(k) in new_leaning:
             continue  # said as leaning: their springs come on with the check's points there
         inside.setdefault(names[int(pairs.obstacles[k])], []).append(names[int(pairs.parts[k])])
     why = [f"{both} leaning on each other" for both in leans] + [
-        f"finer contact where {_listed(parts)} lay inside `{obstacle}`" for obstacle, parts in inside.items()
+        f"finer contact where {listed(parts)} lay inside `{obstacle}`" for obstacle, parts in inside.items()
     ]
     more = f"; and {len(why) - ROUND_REASONS_TOLD} more" if len(why) > ROUND_REASONS_TOLD else ""
     return (
@@ -986,12 +986,6 @@ def _contact_round_note(
         + "; ".join(why[:ROUND_REASONS_TOLD])
         + more
     )
-
-
-def _listed(names: list[str]) -> str:
-    """`a`, `b` and `c`."""
-    quoted = [f"`{name}`" for name in names]
-    return quoted[0] if len(quoted) == 1 else ", ".join(quoted[:-1]) + " and " + quoted[-1]
 
 
 def _told(options: SolveOptions, stage: str) -> Callable[[str], None]:
