@@ -72,7 +72,6 @@ def verdict(search: DesignPlan, outcome: DesignOutcome, options: DesignOptions) 
         return "nothing to solve: the inventory's parts do not connect the target to the environment"
     if best is None:
         return "no design could be solved: each was rejected by the full check or not reached in time"
-
     error = best.position_mm or 0.0
     if reaches(outcome, options):
         within = f"within {options.tolerance_mm:g} mm"
