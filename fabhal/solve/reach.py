@@ -217,9 +217,51 @@ def hangs_below(model: Model, goal: target_mod.TargetGoal, x: Array) -> Diagnost
         f"hangs straight down from it, and the target comes to rest {anchor - reached:.0f} mm below "
         f"it where the request is {anchor - requested:.0f} mm below",
         model.program.targets[0].span,
-        f"shorten what hangs between them by about {drop:.0f} mm (fewer or shorter parts), or ask for "
-        "the target lower",
+        f"shorten what hangs between them by about {drop:.0f} mm "
+        f"({_fewer(model, goal.part, x, frames, drop) or 'fewer or shorter parts'}), "
+        "or ask for the target lower",
     )
+
+
+def _fewer(model: Model, target: int, x: Array, frames: Array, drop: float) -> str | None:
+    """How many of the parts between the support and the target to leave out
+    to shorten the drop by `drop` mm, where they are all of one kind and hang
+    alike (a chain of S-hooks): "3 fewer DoubleHook, each hangs 42 mm here"."""
+    between = _hanging_between(model, target, x, frames)
+    kinds = {model.parts[part].type_name for part, _ in between}
+    if len(kinds) != 1 or len(between) < 2:
+        return None
+    # the topmost hangs from the environment's primitive, the others from one like
+    # themselves: theirs is the length each one left out takes away
+    lengths = np.array([length for _, length in between[:-1]])
+    pitch = float(lengths.mean())
+    if pitch <= 0.0 or np.ptp(lengths) > ALIKE * pitch:
+        return None
+    fewer = round(drop / pitch)
+    if not 1 <= fewer < len(between):
+        return None
+    return f"{fewer} fewer {kinds.pop()}: each hangs {pitch:.0f} mm here"
+
+
+# parts hang alike when their lengths down the chain differ by at most this fraction of their mean
+ALIKE = 0.1
+
+
+def _hanging_between(model: Model, target: int, x: Array, frames: Array) -> list[tuple[int, float]]:
+    """The parts between the target and the environment it hangs from along the
+    tree, each with how far it hangs: the height of its connection above less
+    that of its connection below (mm)."""
+    parent_edges = {model.tree_child[edge.joint]: edge for edge in model.tree}
+    found: list[tuple[int, float]] = []
+    below: Side | None = None  # the part's side toward the target
+    part = target
+    while part in parent_edges:
+        parent, child = model.placed_sides(parent_edges[part])
+        if below is not None:
+            top = model.connector_frame(child, x, frames)[2, 3]
+            found.append((part, float(top - model.connector_frame(below, x, frames)[2, 3])))
+        below, part = parent, parent.part
+    return found
 
 
 def _hanging_from(model: Model, goal: target_mod.TargetGoal) -> tuple[Side, Joint] | None:

@@ -159,6 +159,42 @@ target feeder at (0, 0, {z})
 """
 
 
+FEEDER_ON_A_CHAIN = """\
+import "lib/s_hook_chain.fhl"
+environment ceiling = CeilingHook() at (0, 0, 2000)
+chain = SHookChain(n: {n})
+feeder = BirdFeeder()
+connect chain.top -- ceiling.hook
+connect feeder.ring -- chain.bottom
+target feeder at (0, 0, 1692)
+"""
+
+
+def test_a_chain_too_long_says_how_many_links_to_leave_out(tmp_path: Path) -> None:
+    """The bird feeder of the next test on five S-hooks: each S-hook below the
+    first hangs 42.4 mm (between its arc centres), so with five the feeder's
+    frame rests 219 + 3 x 42.4 = 346 mm under the hook's contact (1916), at
+    1570, where the request is 224 mm under it (1692): 122 mm too low, and
+    122 / 42.4 = 2.9, so W511 says to leave out 3 of them. With two, the
+    feeder rests at 1916 - 219 = 1697, 5 mm above the request (within 10 mm:
+    the hooks' contact shifts a little with the chain's weight). The two-hook
+    chain of the next test, 153 mm too low, would need all its hooks gone:
+    there the help names no number."""
+    program = tmp_path / "feeder.fhl"
+    program.write_text(FEEDER_ON_A_CHAIN.format(n=5))
+    result = api.solve(program)
+    (below,) = [d for d in result.diagnostics if d.code == "W511"]
+    assert "(3 fewer DoubleHook: each hangs 42 mm here)" in below.help
+    program.write_text(FEEDER_ON_A_CHAIN.format(n=2))
+    shorter = api.solve(program)
+    assert shorter.status == "solved" and shorter.solution is not None
+    feeder = shorter.solution.frames[shorter.solution.model.part_index("feeder")]
+    assert abs(feeder[2, 3] - 1692) < 10.0
+    program.write_text(FEEDER_ON_TWO_HOOKS.format(z=1850))
+    (generic,) = [d for d in api.solve(program).diagnostics if d.code == "W511"]
+    assert "(fewer or shorter parts)" in generic.help
+
+
 def test_a_chain_too_long_says_how_far_below_it_hangs(tmp_path: Path) -> None:
     """A bird feeder (its ring 116 mm above its frame) hung from a ceiling hook
     by two S-hooks and asked for 1850, 66 mm under the hook's contact point:
