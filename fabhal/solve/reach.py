@@ -13,7 +13,8 @@ cannot fold close enough.
 
 from __future__ import annotations
 
-from dataclasses import replace
+import math
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -106,15 +107,19 @@ def _what_limits(model: Model, goal: target_mod.TargetGoal, x: Array, frames: Ar
     reached = target_mod.achieved(goal, frames)[:3, 3]
     wanted, got = float(np.linalg.norm(requested - anchor)), float(np.linalg.norm(reached - anchor))
     nearest = f"even turned freely, it stays {gap:.0f} mm away"
+    chain = _chain(model, goal.part, x, frames)
     if got < wanted - 0.5 * gap:
+        how = f" ({chain.more(wanted - got)})" if chain is not None else ""
         return (
             f"{nearest}: the request is {wanted:.0f} mm from `{support}`, where the hack hangs, and "
-            f"the parts reach {got:.0f} mm from it; add parts or use longer ones"
+            f"the parts reach {got:.0f} mm from it; add parts or use longer ones{how}"
         )
     if got > wanted + 0.5 * gap:
+        fewer = chain.fewer(got - wanted) if chain is not None else None
         return (
             f"{nearest}: the request is {wanted:.0f} mm from `{support}`, where the hack hangs, but the "
             f"parts keep the target at least {got:.0f} mm from it; use fewer or shorter parts"
+            + (f" ({fewer})" if fewer else "")
         )
     return f"{nearest}, in a direction the connections cannot move it; move the request or the support"
 
@@ -218,39 +223,56 @@ def hangs_below(model: Model, goal: target_mod.TargetGoal, x: Array) -> Diagnost
         f"it where the request is {anchor - requested:.0f} mm below",
         model.program.targets[0].span,
         f"shorten what hangs between them by about {drop:.0f} mm "
-        f"({_fewer(model, goal.part, x, frames, drop) or 'fewer or shorter parts'}), "
-        "or ask for the target lower",
+        f"({_fewer_hint(model, goal, x, frames, drop)}), or ask for the target lower",
     )
 
 
-def _fewer(model: Model, target: int, x: Array, frames: Array, drop: float) -> str | None:
-    """How many of the parts between the support and the target to leave out
-    to shorten the drop by `drop` mm, where they are all of one kind and hang
-    alike (a chain of S-hooks): "3 fewer DoubleHook, each hangs 42 mm here"."""
-    between = _hanging_between(model, target, x, frames)
+@dataclass(frozen=True)
+class _Chain:
+    """The parts between the support and the target, where they are all of one
+    kind and each spans alike (a chain of S-hooks): how many to add or leave out
+    for a length."""
+
+    kind: str
+    pitch: float  # mm each spans: between its connection above and the one below
+    count: int
+
+    def fewer(self, length: float, nearest: bool = False) -> str | None:
+        """`length` mm shorter: the count to leave out (at least that much, or the
+        nearest), where leaving out fewer than all of them does."""
+        fewer = round(length / self.pitch) if nearest else math.ceil(length / self.pitch)
+        if not 1 <= fewer < self.count:
+            return None
+        return f"{fewer} fewer {self.kind}: each spans {self.pitch:.0f} mm here"
+
+    def more(self, length: float) -> str:
+        return f"{math.ceil(length / self.pitch)} more {self.kind}: each spans {self.pitch:.0f} mm here"
+
+
+# parts span alike when their lengths along the chain differ by at most this fraction of their mean
+ALIKE = 0.1
+
+
+def _chain(model: Model, target: int, x: Array, frames: Array) -> _Chain | None:
+    """The parts between the target and the environment it hangs from along the
+    tree as a `_Chain`, if they are one kind spanning alike."""
+    between = _spans_between(model, target, x, frames)
     kinds = {model.parts[part].type_name for part, _ in between}
     if len(kinds) != 1 or len(between) < 2:
         return None
     # the topmost hangs from the environment's primitive, the others from one like
-    # themselves: theirs is the length each one left out takes away
+    # themselves: theirs is the length each one added or left out makes
     lengths = np.array([length for _, length in between[:-1]])
     pitch = float(lengths.mean())
     if pitch <= 0.0 or np.ptp(lengths) > ALIKE * pitch:
         return None
-    fewer = round(drop / pitch)
-    if not 1 <= fewer < len(between):
-        return None
-    return f"{fewer} fewer {kinds.pop()}: each hangs {pitch:.0f} mm here"
+    return _Chain(kinds.pop(), pitch, len(between))
 
 
-# parts hang alike when their lengths down the chain differ by at most this fraction of their mean
-ALIKE = 0.1
-
-
-def _hanging_between(model: Model, target: int, x: Array, frames: Array) -> list[tuple[int, float]]:
+def _spans_between(model: Model, target: int, x: Array, frames: Array) -> list[tuple[int, float]]:
     """The parts between the target and the environment it hangs from along the
-    tree, each with how far it hangs: the height of its connection above less
-    that of its connection below (mm)."""
+    tree, target first, each with the distance between its connection toward
+    the environment and its connection toward the target (mm)."""
     parent_edges = {model.tree_child[edge.joint]: edge for edge in model.tree}
     found: list[tuple[int, float]] = []
     below: Side | None = None  # the part's side toward the target
@@ -258,10 +280,15 @@ def _hanging_between(model: Model, target: int, x: Array, frames: Array) -> list
     while part in parent_edges:
         parent, child = model.placed_sides(parent_edges[part])
         if below is not None:
-            top = model.connector_frame(child, x, frames)[2, 3]
-            found.append((part, float(top - model.connector_frame(below, x, frames)[2, 3])))
+            top = model.connector_frame(child, x, frames)[:3, 3]
+            found.append((part, float(np.linalg.norm(top - model.connector_frame(below, x, frames)[:3, 3]))))
         below, part = parent, parent.part
     return found
+
+
+def _fewer_hint(model: Model, goal: target_mod.TargetGoal, x: Array, frames: Array, drop: float) -> str:
+    chain = _chain(model, goal.part, x, frames)
+    return (chain.fewer(drop, nearest=True) if chain is not None else None) or "fewer or shorter parts"
 
 
 def _hanging_from(model: Model, goal: target_mod.TargetGoal) -> tuple[Side, Joint] | None:

@@ -166,7 +166,7 @@ chain = SHookChain(n: {n})
 feeder = BirdFeeder()
 connect chain.top -- ceiling.hook
 connect feeder.ring -- chain.bottom
-target feeder at (0, 0, 1692)
+target feeder at (0, 0, {z})
 """
 
 
@@ -181,11 +181,11 @@ def test_a_chain_too_long_says_how_many_links_to_leave_out(tmp_path: Path) -> No
     chain of the next test, 153 mm too low, would need all its hooks gone:
     there the help names no number."""
     program = tmp_path / "feeder.fhl"
-    program.write_text(FEEDER_ON_A_CHAIN.format(n=5))
+    program.write_text(FEEDER_ON_A_CHAIN.format(n=5, z=1692))
     result = api.solve(program)
     (below,) = [d for d in result.diagnostics if d.code == "W511"]
-    assert "(3 fewer DoubleHook: each hangs 42 mm here)" in below.help
-    program.write_text(FEEDER_ON_A_CHAIN.format(n=2))
+    assert "(3 fewer DoubleHook: each spans 42 mm here)" in below.help
+    program.write_text(FEEDER_ON_A_CHAIN.format(n=2, z=1692))
     shorter = api.solve(program)
     assert shorter.status == "solved" and shorter.solution is not None
     feeder = shorter.solution.frames[shorter.solution.model.part_index("feeder")]
@@ -193,6 +193,24 @@ def test_a_chain_too_long_says_how_many_links_to_leave_out(tmp_path: Path) -> No
     program.write_text(FEEDER_ON_TWO_HOOKS.format(z=1850))
     (generic,) = [d for d in api.solve(program).diagnostics if d.code == "W511"]
     assert "(fewer or shorter parts)" in generic.help
+
+
+def test_a_chain_too_short_says_how_many_links_to_add(tmp_path: Path) -> None:
+    """The same feeder on two S-hooks rests at 1697 (the test above); asked for
+    1597, 100 mm lower, no configuration reaches (the chain hangs straight
+    already): W505, and 100 / 42.4 = 2.4, so 3 more S-hooks. With five the
+    request is reached (no W505): the feeder rests at 1570, 27 mm under it,
+    less than one S-hook's span."""
+    program = tmp_path / "feeder.fhl"
+    program.write_text(FEEDER_ON_A_CHAIN.format(n=2, z=1597))
+    (short,) = [d for d in api.solve(program).diagnostics if d.code == "W505"]
+    assert "add parts or use longer ones (3 more DoubleHook: each spans 42 mm here)" in short.help
+    program.write_text(FEEDER_ON_A_CHAIN.format(n=5, z=1597))
+    longer = api.solve(program)
+    assert "W505" not in [d.code for d in longer.diagnostics]
+    assert longer.solution is not None
+    feeder = longer.solution.frames[longer.solution.model.part_index("feeder")]
+    assert abs(feeder[2, 3] - 1597) < 42.4
 
 
 def test_a_chain_too_long_says_how_far_below_it_hangs(tmp_path: Path) -> None:
