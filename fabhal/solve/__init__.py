@@ -605,8 +605,7 @@ def _solve_once(model: Model, options: SolveOptions, loop_start: Array | None) -
                     f"{100 * (settled.equilibrium or 0.0):.1f} % of the assembly's weight "
                     "is still unbalanced",
                     model.program.targets[0].span,
-                    "the hack would move on from the result shown: allow more time (--time-limit) or try "
-                    "another --seed; if it persists, the design has no resting place near this start",
+                    _not_at_rest_help(options, step1.out_of_time()),
                 )
             )
         if step1.out_of_time() and not fit.late:
@@ -664,6 +663,19 @@ def _solve_once(model: Model, options: SolveOptions, loop_start: Array | None) -
         settled.contacts,
         out_of_reach_mm,
         tuple((part, other) for part, other, _ in overlaps if model.parts[other].environment),
+    )
+
+
+def _not_at_rest_help(options: SolveOptions, out_of_time: bool) -> str:
+    """E503's help: more time only where a time limit ended the settle."""
+    retry = (
+        f"allow more time (--time-limit, {options.time_limit:g} s now) or try another --seed"
+        if out_of_time and options.time_limit is not None
+        else "try another --seed (the settle ran to its iteration limit)"
+    )
+    return (
+        f"the hack would move on from the result shown: {retry}; if it persists, the design has no "
+        "resting place near this start (`fabhal render` shows where it stopped)"
     )
 
 
