@@ -84,9 +84,15 @@ def diagnose(
     target = model.program.targets[0]
     at_best = _at_best(position, rotation)
     if not position_out_of_reach(position, loose_position):  # turned freely it gets there: rotation limits
+        # the fit may have kept the rotation and given up the position: say the two together
+        what = (
+            "the requested position is out of reach turned as asked"
+            if rotation <= REACH_DEG
+            else "the requested rotation is out of reach"
+        )
         return warning(
             "W505",
-            f"the requested rotation is out of reach: {at_best}",
+            f"{what}: {at_best}",
             target.span,
             f"the parts can bring the target within {min(loose_position, position):.0f} mm of the requested "
             "position, but not turned as asked: how it is held sets its rotation; ask for the "

@@ -68,6 +68,49 @@ def test_a_rotation_the_holder_cannot_give_is_named(tmp_path: Path) -> None:
     assert "within 0 mm of the requested position" in problem.help
 
 
+KEY_RING = """\
+part KeyRing "Split key ring, 30 mm, steel" {
+  material steel
+  hole ring(arc_radius: 15, thickness: 1.5)
+}
+part BigS "S-hook bent from 3 mm wire, 25 mm arcs" {
+  material steel
+  hook hook1(arc_radius: 25, arc_angle: 270, thickness: 3) at (0, 0, 25)
+  hook hook2(arc_radius: 25, arc_angle: 270, thickness: 3) at (0, 0, -25) rot (0, 0, 180)
+}
+environment wall = WallHook() at (0, 0, 1500)
+s = BigS()
+keys = KeyRing()
+connect s.hook1 -- wall.hook
+connect keys.ring -- s.hook2
+target keys at (0, -16, 1360)
+"""
+
+
+def test_a_position_out_of_reach_turned_as_asked_says_so_and_gives_way_to_w511(tmp_path: Path) -> None:
+    """A key ring of my own on an S-hook of my own from a wall hook, asked for
+    68 mm under the wall hook's contact, unturned. With gravity off, step 1
+    keeps the ring turned as asked (0 degrees) and ends 40 mm from the
+    position, which it reaches once turned freely (the S-hook folded up): W505
+    says the position is out of reach turned as asked (it used to say "the
+    requested rotation is out of reach" beside "0 degrees"). Hanging, the ring
+    is turned as asked and rests 40 mm below the request, where the parts
+    hang straight: W511 says that, and the W505 about step 1's rotation,
+    which would send the user to change a rotation already met, is dropped."""
+    program = tmp_path / "keys.fhl"
+    program.write_text(KEY_RING)
+    (unhung,) = [d for d in api.solve(program, gravity=False).diagnostics if d.code == "W505"]
+    assert unhung.message.startswith("the requested position is out of reach turned as asked:")
+    assert "within 40 mm and 0 degrees" in unhung.message
+    assert "within 0 mm of the requested position" in unhung.help
+    hung = api.solve(program)
+    assert hung.status == "solved" and hung.solution is not None
+    position, rotation = hung.solution.target_errors()
+    assert abs(position - 40.0) < 1.0 and rotation < 1.0
+    codes = [d.code for d in hung.diagnostics]
+    assert "W511" in codes and "W505" not in codes
+
+
 HUNG_FROM_A_CEILING_HOOK = """\
 environment ceiling = CeilingHook() at (0, 0, 1000)
 s = DoubleHook()
