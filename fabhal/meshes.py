@@ -36,6 +36,12 @@ _ARC_SEGMENTS_PER_TURN = 48
 _WIRE_SEGMENTS = 12
 
 
+# a part's own frame this far outside its bounding box (mm) is worth a word (N424, `fabhal
+# parts`): a target on it places a point the user may think is on the part (the handle
+# basket's origin lies 164 mm from its body; the library's movable parts are otherwise within 25)
+FRAME_OUTSIDE_SAID_MM = 50.0
+
+
 @dataclass(frozen=True)
 class MassProperties:
     mass_g: float | None  # None: no material and no `mass` line (environments, bare primitives)
@@ -43,6 +49,13 @@ class MassProperties:
     bounds: tuple[tuple[float, float, float], tuple[float, float, float]]  # mm, part frame
     volume_mm3: float
     source: str  # "mesh", "primitives" or "mass line"
+
+    @property
+    def frame_outside_mm(self) -> float:
+        """How far the part's own frame (its origin) lies outside its bounding
+        box (0 inside): a target on the part's frame places that point."""
+        low, high = self.bounds
+        return sum(max(lo, -hi, 0.0) ** 2 for lo, hi in zip(low, high, strict=True)) ** 0.5
 
 
 @lru_cache(maxsize=64)

@@ -159,25 +159,18 @@ def _reached(start: str, beside: dict[str, set[str]]) -> set[str]:
     return reached
 
 
-# a part's own frame this far outside its mesh's bounding box (mm) is worth a word: a
-# target on it places a point the user may think is on the part (the handle basket's
-# origin lies 164 mm from its body; the library's movable parts are otherwise within 25)
-FRAME_OFF_THE_PART_MM = 50.0
-
-
 def _target_frame_off_its_part(ctx: CheckContext) -> list[Diagnostic]:
     """A target on a part's own frame (no primitive) where that frame lies far
     outside the part: where its mesh was modelled, not where the part is."""
-    from fabhal.meshes import mass_properties  # measures shipped beside the meshes, or cached
+    from fabhal.meshes import FRAME_OUTSIDE_SAID_MM, mass_properties  # measures shipped, or cached
 
     problems = []
     for target in ctx.program.targets[:1]:
         part = ctx.program.part(target.part)
         if target.primitive is not None or part.environment:
             continue
-        low, high = mass_properties(part.spec).bounds
-        gap = sum(max(lo, -hi, 0.0) ** 2 for lo, hi in zip(low, high, strict=True)) ** 0.5
-        if gap <= FRAME_OFF_THE_PART_MM:
+        gap = mass_properties(part.spec).frame_outside_mm
+        if gap <= FRAME_OUTSIDE_SAID_MM:
             continue
         primitive = part.spec.primitives[0].name if part.spec.primitives else "primitive"
         problems.append(

@@ -5,7 +5,7 @@ from __future__ import annotations
 from typing import TYPE_CHECKING, Any
 
 from fabhal.library import Library, PartSpec, PartType
-from fabhal.meshes import MassProperties, mass_properties
+from fabhal.meshes import FRAME_OUTSIDE_SAID_MM, MassProperties, mass_properties
 from fabhal.primitives import Primitive
 from fabhal.syntax import ast
 
@@ -76,6 +76,7 @@ def detail_json(part_type: PartType, spec: PartSpec, mass: MassProperties) -> di
         "volume_mm3": round(mass.volume_mm3, 1),
         "center_of_mass": _round(mass.center_of_mass),
         "bounding_box": {"min": _round(mass.bounds[0]), "max": _round(mass.bounds[1])},
+        "frame_outside_mm": round(mass.frame_outside_mm, 1),
         "primitives": [primitive_json(p) for p in spec.primitives],
     }
 
@@ -121,6 +122,11 @@ def detail_renderables(info: dict[str, Any]) -> list[RenderableType]:
     head.append(f"centre of mass {_numbers(info['center_of_mass'])} mm, ")
     box = info["bounding_box"]
     head.append(f"bounding box {_numbers(box['min'])} .. {_numbers(box['max'])} mm\n")
+    if info["frame_outside_mm"] > FRAME_OUTSIDE_SAID_MM:
+        head.append(
+            f"its own frame lies {info['frame_outside_mm']:g} mm outside it (where its mesh was modelled): "
+            "`at (...)` and `target` place that point, not the part; a target on a primitive is on it\n"
+        )
     head.append(f"mesh {info['mesh'] or '(drawn from its primitives)'}")
 
     table = Table(title="connector primitives (frames in the part frame; DoFs per connection)")

@@ -42,6 +42,19 @@ def test_one_part_in_full() -> None:
     assert "BOUNDED_AND_OPEN" in human.stdout and "10.85 g" in human.stdout
 
 
+def test_a_part_whose_frame_lies_off_it_says_so() -> None:
+    """HandleBasket's mesh has its origin outside the basket: its bounding box
+    runs from (-94.9, 97.8, 131.7) to (32.1, 258.3, 300.3), so the origin is
+    97.8 mm off in y and 131.7 mm in z, sqrt(97.8^2 + 131.7^2) = 164.0 mm
+    away (x lies within). The S-hook's frame is at its middle (0 mm)."""
+    info = json.loads(fabhal("parts", "HandleBasket", "--json").stdout)
+    assert info["frame_outside_mm"] == pytest.approx(164.0, abs=0.1)
+    human = fabhal("parts", "HandleBasket")
+    assert "its own frame lies 164 mm outside it" in " ".join(human.stdout.split())
+    assert json.loads(fabhal("parts", "DoubleHook", "--json").stdout)["frame_outside_mm"] == 0.0
+    assert "its own frame lies" not in fabhal("parts", "DoubleHook").stdout
+
+
 def test_unknown_part_suggests_a_name() -> None:
     run = fabhal("parts", "DoubleHok")
     assert run.returncode == 2
