@@ -184,6 +184,26 @@ def test_a_grid_is_built_once_per_machine(
     assert again is not first and np.array_equal(again.values, first.values)  # type: ignore[attr-defined]
 
 
+def test_a_scan_with_holes_builds_its_grid_on_an_empty_cache(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The reading nook's room is a scan with holes: building its grid splits
+    the mesh, and trimesh repairs each piece with networkx. With every grid
+    cached that was never run on a clean machine; there, the nook's first
+    solve stopped with "No module named 'networkx'" (an internal error) until
+    the project installed it. Built here from an empty cache: finite, with
+    an inside and an outside."""
+    from fabhal import meshes
+
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "cache"))
+    monkeypatch.setattr(meshes, "_CONTACT_CACHE", {})
+    built: list[str] = []
+    room = contact_grid(part("ReadingRoom"), lambda: built.append("built"))
+    assert built == ["built"]
+    assert room.values.size > 100_000 and np.isfinite(room.values).all()
+    assert (room.values < 0).any() and (room.values > 0).any()  # an inside and an outside
+
+
 @pytest.mark.parametrize("name", ["Mug", "DoubleHook", "BasketBase"])
 def test_no_point_outside_inside_bounds_reads_inside_the_grid(name: str) -> None:
     """Contact looks a point up only within `inside_bounds`: that must hold
