@@ -8,6 +8,7 @@ import os
 import re
 import shutil
 import subprocess
+import tempfile
 from functools import cache
 from pathlib import Path
 from typing import Any
@@ -17,6 +18,27 @@ import pytest
 import fabhal  # noqa: F401  (first: pins the numeric libraries to one thread before numpy loads)
 
 REPO = Path(__file__).resolve().parent.parent
+
+
+def pytest_configure(config: pytest.Config) -> None:
+    """Every run starts as on a new machine: FabHaL's per-user cache (contact
+    grids, points, mesh measures, parser tables) in an empty directory of its
+    own, removed at the end, so what only a warm cache hid fails here (grids
+    once needed networkx, which no project file installed, and only cached
+    grids let the tests pass). FABHAL_TEST_CACHE=keep uses the user's cache
+    instead (faster, for a quick local run)."""
+    if os.environ.get("FABHAL_TEST_CACHE") == "keep":
+        return
+    config._fabhal_cache = tempfile.mkdtemp(prefix="fabhal-test-cache-")  # type: ignore[attr-defined]
+    os.environ["XDG_CACHE_HOME"] = config._fabhal_cache  # type: ignore[attr-defined]
+
+
+def pytest_unconfigure(config: pytest.Config) -> None:
+    cache = getattr(config, "_fabhal_cache", None)
+    if cache is not None:
+        shutil.rmtree(cache, ignore_errors=True)
+
+
 DATA = REPO / "tests" / "data"  # reference data (MIT, see tests/data/LICENSE)
 UPDATE_GOLDEN = os.environ.get("FABHAL_UPDATE_GOLDEN") == "1"
 
