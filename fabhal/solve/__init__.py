@@ -676,7 +676,7 @@ def _not_at_rest_help(options: SolveOptions, out_of_time: bool) -> str:
     retry = (
         f"allow more time (--time-limit, {options.time_limit:g} s now) or try another --seed"
         if out_of_time and options.time_limit is not None
-        else "try another --seed (the settle ran to its iteration limit)"
+        else "try another --seed (the settle stopped short of a rest)"
     )
     return (
         f"the hack would move on from the result shown: {retry}; if it persists, the design has no "

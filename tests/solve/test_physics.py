@@ -335,7 +335,7 @@ def test_a_result_out_of_balance_is_never_solved(tmp_path: Path, monkeypatch: py
     assert result.status == "not_at_rest"
     (e503,) = [d for d in result.diagnostics if d.code == "E503"]
     assert e503.severity == "error" and "still unbalanced" in e503.message
-    # no time limit was set, so more time is not the advice: the settle ran to its iterations
+    # no time limit was set, so more time is not the advice: the settle stopped short of a rest
     assert "--time-limit" not in e503.help and "another --seed" in e503.help
     limited = solve_module.SolveOptions(time_limit=2.0)
     assert "(--time-limit, 2 s now)" in solve_module._not_at_rest_help(limited, out_of_time=True)
