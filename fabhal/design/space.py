@@ -102,7 +102,7 @@ RULES = {
     "E401": "the connectivity table (E401)",
     "E402": "both sides closed (E402)",
     "E404": "sizes that do not fit (E404)",
-    "reach": "too short to reach the target",
+    "reach": "being too short to reach the target",
     "E420": "two chains that cannot span their supports (E420)",
 }
 
