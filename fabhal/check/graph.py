@@ -106,17 +106,9 @@ def _apart_from_the_target(ctx: CheckContext, target: str, floating: set[str]) -
     if program.part(target).environment:  # E417 says what is wrong
         return []
     movable = {p.name for p in program.parts if not p.environment}
-    beside: dict[str, set[str]] = {name: set() for name in movable}
-    hangs_from: dict[str, set[str]] = {name: set() for name in movable}
-    for c in program.connections:
-        a, b = c.a.part, c.b.part
-        if a in movable and b in movable:
-            beside[a].add(b)
-            beside[b].add(a)
-        elif a in movable:
-            hangs_from[a].add(b)
-        elif b in movable:
-            hangs_from[b].add(a)
+    neighbours = _neighbours(ctx)
+    beside = {name: neighbours[name] & movable for name in movable}
+    hangs_from = {name: neighbours[name] - movable for name in movable}
     held = _reached(target, beside)
     problems: list[Diagnostic] = []
     seen: set[str] = set()
@@ -147,6 +139,16 @@ def _apart_from_the_target(ctx: CheckContext, target: str, floating: set[str]) -
             )
         )
     return problems
+
+
+def _neighbours(ctx: CheckContext) -> dict[str, set[str]]:
+    """Every part (environments too) and the other parts it is connected to."""
+    neighbours: dict[str, set[str]] = {part.name: set() for part in ctx.program.parts}
+    for c in ctx.program.connections:
+        if c.a.part != c.b.part:  # a part connected to itself (E414) is not its own neighbour
+            neighbours[c.a.part].add(c.b.part)
+            neighbours[c.b.part].add(c.a.part)
+    return neighbours
 
 
 def _reached(start: str, beside: dict[str, set[str]]) -> set[str]:
@@ -218,17 +220,11 @@ def _only_on_target(ctx: CheckContext, target: str | None) -> list[Diagnostic]:
     if target is None or ctx.program.part(target).environment:  # E417 says what is wrong
         return []
     problems = []
+    neighbours = _neighbours(ctx)
     for part in ctx.program.parts:
         if part.environment or part.name == target:
             continue
-        neighbours = {
-            end.part
-            for c in ctx.program.connections
-            if part.name in (c.a.part, c.b.part)
-            for end in (c.a, c.b)
-            if end.part != part.name
-        }
-        if neighbours == {target}:
+        if neighbours[part.name] == {target}:
             problems.append(
                 warning(
                     "W411",

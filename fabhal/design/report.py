@@ -31,12 +31,12 @@ def count_lines(search: DesignPlan, outcome: DesignOutcome, options: DesignOptio
     pruned = ", ".join(
         f"{n:,} by {RULES.get(rule, rule)}" for rule, n in sorted(search.pruned.items(), key=lambda r: -r[1])
     )
-    solved = sum(1 for m in outcome.members if m.status == "solved")
-    rejected = sum(1 for m in outcome.members if m.status == "rejected")
     on_the_way = f" (partial designs dropped or set aside on the way: {pruned})" if pruned else ""
     if not search.generated:  # nothing to solve: say which rules ended every partial design
         connects = "connects the target to the environment"
         return [f"no design with at most {options.max_parts} parts {connects}{on_the_way}"]
+    solved = sum(1 for m in outcome.members if m.status == "solved")
+    rejected = sum(1 for m in outcome.members if m.status == "rejected")
     passed = "passed every rule" if search.reaching else "are too short to reach the target, every one"
     return [
         f"{search.generated:,} designs with at most {options.max_parts} parts {passed}{on_the_way}",

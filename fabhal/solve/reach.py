@@ -14,6 +14,7 @@ cannot fold close enough.
 from __future__ import annotations
 
 import math
+from collections.abc import Iterator
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -143,14 +144,21 @@ def _support(model: Model, part: int, x: Array, frames: Array) -> tuple[str, Arr
 def _support_side(model: Model, part: int) -> tuple[Side, Joint] | None:
     """The environment's side of the connection the part hangs from along the
     tree (and that connection), or None if no environment places it."""
+    for parent, _, joint in _up_the_tree(model, part):
+        if model.parts[parent.part].environment:
+            return parent, joint
+    return None
+
+
+def _up_the_tree(model: Model, part: int) -> Iterator[tuple[Side, Side, Joint]]:
+    """From `part` up the spanning tree to what places it: each connection's
+    side above (the one placed first), its side below, and the connection."""
     parent_edges = {model.tree_child[edge.joint]: edge for edge in model.tree}
     while part in parent_edges:
         edge = parent_edges[part]
-        parent, _ = model.placed_sides(edge)
-        if model.parts[parent.part].environment:
-            return parent, model.joints[edge.joint]
+        parent, child = model.placed_sides(edge)
+        yield parent, child, model.joints[edge.joint]
         part = parent.part
-    return None
 
 
 # environment primitives a hack hangs from at one point, free to swing every way
@@ -279,16 +287,15 @@ def _spans_between(model: Model, target: int, x: Array, frames: Array) -> list[t
     """The parts between the target and the environment it hangs from along the
     tree, target first, each with the distance between its connection toward
     the environment and its connection toward the target (mm)."""
-    parent_edges = {model.tree_child[edge.joint]: edge for edge in model.tree}
     found: list[tuple[int, float]] = []
     below: Side | None = None  # the part's side toward the target
-    part = target
-    while part in parent_edges:
-        parent, child = model.placed_sides(parent_edges[part])
+    for parent, child, _ in _up_the_tree(model, target):
         if below is not None:
             top = model.connector_frame(child, x, frames)[:3, 3]
-            found.append((part, float(np.linalg.norm(top - model.connector_frame(below, x, frames)[:3, 3]))))
-        below, part = parent, parent.part
+            found.append(
+                (child.part, float(np.linalg.norm(top - model.connector_frame(below, x, frames)[:3, 3])))
+            )
+        below = parent
     return found
 
 
