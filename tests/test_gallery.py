@@ -17,6 +17,7 @@ import pytest
 from fabhal import api
 from fabhal.diagnostics import Severity
 from fabhal.load import load_program
+from fabhal.solve import contacts
 from tests.conftest import REPO, written_in_reverse
 
 PROGRAMS = sorted(p.stem for p in (REPO / "programs").glob("*.fhl"))
@@ -187,12 +188,24 @@ def test_in_the_tipped_basket_the_soap_bottle_slides_down_to_the_walls() -> None
     """Hung by one handle the basket's floor slopes far beyond the friction
     angle (atan 0.3 = 16.7 degrees): the bottle slides down its floor until its
     base meets the basket's walls, both of the floor's slides on an end of
-    their range, and leans there (no E507: the walls hold it)."""
+    their range, and leans there (no E507: the walls hold it). It leans on
+    them, not in them: the floor's border is the walls' inner faces, 122 mm
+    from the middle, so the base's centre stops 122 - 77 / 2 = 83.5 mm out and
+    the round body (38.8 mm in the mesh) reaches 122.3 mm: 0.3 mm into the wall
+    by the check's points, under the 0.5 mm where springs join (with the
+    reference's 248 mm floor, 2.3 mm)."""
     solution = solved("soap_bottle_one_eyehook").solution
     (standing,) = solution.model.standing
     assert set(standing.slide) <= set(solution.at_bound)
     assert tilt_deg(solved("soap_bottle_one_eyehook"), "soap") > 16.7
     assert solution.status == "solved"
+    model = solution.model
+    pairs = contacts.contact_pairs(model)
+    depth = contacts.check(model, solution.x, pairs).depth
+    soap, basket = model.part_index("soap"), model.part_index("basket")
+    between = [k for k in range(len(pairs)) if pairs.bodies(k) == {soap, basket}]
+    assert len(between) == 2  # each one's points against the other's shape
+    assert max(depth[between]) < contacts.REFINE_DEPTH_MM
 
 
 def test_closet_basket_hangs_between_the_rods_its_eye_rings_jammed() -> None:

@@ -37,6 +37,9 @@ def conformance_cases() -> list[dict]:
 
 # our parts that the reference does not have: each one of its parts with a flag added
 OURS_ONLY = {"LevelHulaHoop": "HulaHoop"}
+# primitives whose size the library corrects (stdlib_parts/ says why at each): their
+# frames are compared at the reference's size, the formula being what is tested
+REFERENCE_SIZES = {("Basket", "surface"): {"width": 248.0, "length": 248.0}}
 
 
 def test_the_conformance_set_covers_every_library_primitive() -> None:
@@ -66,6 +69,17 @@ def test_connector_frames_match_the_reference(case: dict) -> None:
     # tolerance 1e-6: the reference's matrices are printed to 9 decimals
     primitive = part(case["part"]).primitive(case["primitive"])
     assert primitive is not None
+    resized = REFERENCE_SIZES.get((case["part"], case["primitive"]))
+    if resized is not None:
+        assert any(primitive.params[k] != v for k, v in resized.items()), "no longer resized"
+        primitive = make_primitive(
+            primitive.name,
+            primitive.kind,
+            {**primitive.params, **resized},
+            primitive.flags,
+            primitive.position,
+            primitive.rotation,
+        )
     assert primitive.variant == case["variant"]
     reference_dofs = [d["name"] for d in case["dofs"]]
     # ours may add DoFs after the reference's (a centre-line rod's spin), which change nothing

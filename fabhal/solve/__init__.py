@@ -1779,6 +1779,20 @@ def _fall_diagnostic(model: Model, fall: Failure) -> Diagnostic:
 
 def _overlap_diagnostic(model: Model, part_index: int, other_index: int, depth: float) -> Diagnostic:
     part, other = (model.parts[i] for i in (part_index, other_index))
+    stands = _standing_between(model, part_index, other_index)
+    if stands is not None:
+        floor_side = next((s.floor for s in model.standing if s.joint == stands.index), None)
+        if floor_side is None:  # on round feet: the surface is the floor
+            floor_side = "a" if stands.a.primitive.kind == "surface" else "b"
+        floor, thing = (stands.a, stands.b) if floor_side == "a" else (stands.b, stands.a)
+        return error(
+            "E508",
+            f"`{model.parts[thing.part].name}` does not fit where it stands on `{stands.endpoint(floor)}`: "
+            f"`{part.name}` is {depth:.1f} mm inside `{other.name}` there",
+            stands.connection.span,
+            "a standing object must fit between its floor and whatever spans it (a handle across a "
+            "basket) or beside it: stand a smaller one, or use a carrier it fits in",
+        )
     return error(
         "E508",
         f"`{part.name}` is {depth:.1f} mm inside `{other.name}` where the solver stopped: "
@@ -1787,6 +1801,16 @@ def _overlap_diagnostic(model: Model, part_index: int, other_index: int, depth: 
         "the connections hold them where they would pass through each other: give them room (another "
         "place on what holds them, a longer part), or try another --seed",
     )
+
+
+def _standing_between(model: Model, part_index: int, other_index: int) -> Joint | None:
+    """The connection that stands one of the two parts on the other's surface, if any."""
+    both = {part_index, other_index}
+    for joint in model.joints:
+        kinds = {joint.a.primitive.kind, joint.b.primitive.kind}
+        if "surface" in kinds and {joint.a.part, joint.b.part} == both:
+            return joint
+    return None
 
 
 def _through_diagnostic(model: Model, part_index: int, other_index: int, span: float) -> Diagnostic:

@@ -77,6 +77,44 @@ def test_a_bottle_slides_down_a_steep_floor_to_its_side(tmp_path: Path) -> None:
     assert np.allclose(where_on_ramp(result), (expected, 0.5), atol=1e-3)
 
 
+BOTTLE_UNDER_A_HANDLE = """\
+environment ceiling = CeilingHook() at (0, 0, 1000)
+basket = HandleBasket()
+soap = SoapBottle()
+connect basket.rod -- ceiling.hook set (basket.rod.t: 0.5)
+connect soap.surface -- basket.surface
+target soap.rod at (0, 0, 700)
+"""
+
+
+def test_a_bottle_too_tall_for_its_baskets_handle_does_not_fit(tmp_path: Path) -> None:
+    """HandleBasket hung by its handle's middle: the handle's middle (-31.4,
+    178) lies above the floor's middle (-31.3, 177.9, basket frame), so basket
+    and bottle hang level with the bottle where step 1 stood it, mid-floor.
+    Heights above the floor (z = 143): the handle's axis 297.1, its underside
+    297.1 - 3 - 143 = 151.1 mm; the bottle's mesh rises 191 mm above its base
+    (base face at z = -1, top at 190). Its top would be 40 mm above the handle's
+    underside, and no place on the floor clears the handle: across the handle
+    the floor is 118 mm wide, so the base's centre stays within (118 - 77) / 2
+    = 20.5 mm of the handle's line, less than the bottle's radius 38.8 plus the
+    handle's 3. The handle passes through the bottle: E508 at the surface
+    connection, never `solved` (it was, before the pair was checked).
+    Tolerances: level to 1 degree and mid-floor to 1e-2 of the floor (the
+    springs' give and the friction's smoothing move them by less)."""
+    result = solve_text(tmp_path, BOTTLE_UNDER_A_HANDLE)
+    solution = result.solution
+    assert solution is not None
+    basket = solution.model.part_index("basket")
+    tilt = np.degrees(np.arccos(np.clip(solution.frames[basket][2, 2], -1.0, 1.0)))
+    assert tilt < 1.0
+    (standing,) = solution.model.standing
+    assert np.allclose(solution.x[list(standing.slide)], (0.5, 0.5), atol=1e-2)
+    assert result.status != "solved"
+    (overlap,) = [d for d in result.diagnostics if d.code == "E508"]
+    assert overlap.span.line == 5  # the connection that stands it there
+    assert "`soap` does not fit where it stands on `basket.surface`" in overlap.message
+
+
 def test_friction_on_a_floor_is_the_same_in_every_direction(tmp_path: Path) -> None:
     """The ramp sloping 20 degrees along its diagonal (tilted about x after a
     45-degree turn in its own plane). Coulomb friction resists the slide, not
