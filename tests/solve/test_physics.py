@@ -399,6 +399,38 @@ target basket.surface at (0, 0, 700)
     assert _basket_tilt(result.solution) == pytest.approx(np.degrees(np.arctan(124.5 / 151.5)), abs=0.01)
 
 
+def test_a_wire_hanger_loaded_at_one_corner_tips_about_its_hooks_arc(tmp_path: Path) -> None:
+    """A Hanger on a rod, an S-hook (10.85 g) and a mug (350 g) hung from its
+    corner bend hook2. Each hook rests on the wire inside it at the point
+    straight below its arc's centre, so the hanger turns about its top hook's
+    arc centre (0, 0, 83; hanger frame, y along the bar, z up) and the load acts
+    straight below the bend's arc centre (0, 194.1, -97.5). At rest the weights'
+    moments about the pivot cancel: the hanger (45 g, centre of mass at y =
+    -0.314, 137.368 below the pivot) and the load (360.85 g, 194.1 to the side
+    and 180.5 below) give tan(tilt) = (45 x -0.314 + 360.85 x 194.1) / (45 x
+    137.368 + 360.85 x 180.5), tilt = 44.48 degrees. Tolerance 0.01 degrees:
+    the settle stops at 1e-4 of the weight."""
+    result = solve_text(
+        tmp_path,
+        """\
+environment rods = ClosetRods() at (0, 0, 1000)
+hanger = Hanger()
+s = DoubleHook()
+mug = Mug()
+connect hanger.hook1 -- rods.rod1
+connect s.hook1 -- hanger.hook2
+connect mug.hook -- s.hook2
+target mug at (0, -90, 750)
+""",
+    )
+    assert result.status == "solved"
+    solution = result.solution
+    up = solution.frames[solution.model.part_index("hanger")][:3, 2]
+    tilt = np.degrees(np.arccos(np.clip(up[2], -1.0, 1.0)))
+    expected = np.degrees(np.arctan2(45 * -0.314 + 360.85 * 194.1, 45 * 137.368 + 360.85 * 180.5))
+    assert tilt == pytest.approx(expected, abs=0.01)
+
+
 @pytest.mark.parametrize(
     ("hook1", "hook2", "tilt"),
     [
