@@ -125,10 +125,13 @@ def _designs(
     yield from held_two_point(starts, below, goal, tops, options_links, owned, options.max_parts, pruned)
 
 
-def _below(anchor: Point, target: str, goal_z: float) -> float:
-    """How far under the anchor the requested frame is (0, unknown, on a part that holds the target)."""
+def _below(anchor: Point, target: str, goal_z: float) -> float | None:
+    """How far under the anchor the requested frame is; None, unknown, on a part
+    that holds the target (a basket the target stands in tilts as it hangs from
+    one handle, and what stands in it slides: a level guess set aside a design
+    that reached)."""
     on_target = anchor.written.split(".")[0] == target
-    return float(anchor.primitive.position[2]) - goal_z if on_target else 0.0
+    return float(anchor.primitive.position[2]) - goal_z if on_target else None
 
 
 def _goal_height(part: PartInstance, primitive: str | None) -> float:
@@ -151,7 +154,10 @@ def solve_designs(job: DesignJob) -> list[MemberResult]:
     for candidate in job.candidates:
         program = load_program(job.spec, candidate.text)
         member, _ = solve_member(Job(program, ({},), job.seed), {})
-        results.append(replace(member, key=candidate.key, bindings={"design": candidate.key}))
+        # the parts the design adds: what the spec brings (a basket the target stands in) is not counted
+        results.append(
+            replace(member, key=candidate.key, bindings={"design": candidate.key}, parts=candidate.parts)
+        )
     return results
 
 

@@ -37,7 +37,7 @@ def count_lines(search: DesignPlan, outcome: DesignOutcome, options: DesignOptio
         return [f"no design with at most {options.max_parts} parts {connects}{on_the_way}"]
     solved = sum(1 for m in outcome.members if m.status == "solved")
     rejected = sum(1 for m in outcome.members if m.status == "rejected")
-    passed = "passed every rule" if search.reaching else "are too short to reach the target, every one"
+    passed = "passed every rule" if search.reaching else "look too short to reach the target, every one"
     return [
         f"{search.generated:,} designs with at most {options.max_parts} parts {passed}{on_the_way}",
         f"solved {len(outcome.members)} of them, the most promising first, in {outcome.elapsed_s:.1f} s: "

@@ -225,24 +225,28 @@ def chains(
 
 
 def one_point(
-    target: Point, below: float, goal: np.ndarray, tops: list[Point], options: list[Link],
+    target: Point, below: float | None, goal: np.ndarray, tops: list[Point], options: list[Link],
     owned: Mapping[str, int], max_parts: int, pruned: Pruned,
 ) -> Iterator[Design]:  # fmt: skip
     """Chains from the target's `target` primitive up to a support, each with its
-    estimate; `below`: how far under that primitive the requested frame is.
+    estimate; `below`: how far under that primitive the requested frame is (None:
+    unknown, taken as 0 for the estimate and never called too short).
     Chains too short to reach are marked `short` (and counted), not dropped:
     when nothing reaches, the nearest of them says how far the inventory falls short."""
     for chain in chains(target.primitive, tops, options, owned, max_parts, pruned):
-        hangs = np.array(chain.support.position) - np.array([0.0, 0.0, chain.length + below])
+        hangs = np.array(chain.support.position) - np.array([0.0, 0.0, chain.length + (below or 0.0)])
         short = _too_short(chain, below, goal)
         if short:
             pruned.add("reach")
         yield Design(target.written, chain, estimate=float(np.linalg.norm(hangs - goal)), short=short)
 
 
-def _too_short(chain: Chain, below: float, goal: np.ndarray) -> bool:
+def _too_short(chain: Chain, below: float | None, goal: np.ndarray) -> bool:
     """Hanging straight from its support, the chain (and the target `below` its
-    end) cannot reach down to the request."""
+    end) cannot reach down to the request; never said where `below` is unknown
+    (None: a part that holds the target, not standing on it)."""
+    if below is None:
+        return False
     distance = float(np.linalg.norm(np.subtract(chain.support.position, goal)))
     return distance > chain.length + below + REACH_SLACK_MM
 
@@ -256,7 +260,7 @@ def _cannot_span(first: Chain, second: Chain, between: float) -> bool:
 
 
 def two_point(
-    target: Point, below: float, goal: np.ndarray, tops: list[Point], options: list[Link],
+    target: Point, below: float | None, goal: np.ndarray, tops: list[Point], options: list[Link],
     owned: Mapping[str, int], max_parts: int, pruned: Pruned,
 ) -> Iterator[Design]:  # fmt: skip
     """A hub (an owned part with three primitives or more) under two supports,
@@ -284,7 +288,7 @@ def two_point(
 
 
 def held_two_point(
-    targets: list[Point], below: Mapping[str, float], goal: np.ndarray, tops: list[Point],
+    targets: list[Point], below: Mapping[str, float | None], goal: np.ndarray, tops: list[Point],
     options: list[Link], owned: Mapping[str, int], max_parts: int, pruned: Pruned,
 ) -> Iterator[Design]:  # fmt: skip
     """The target hung from two points by itself: a chain from each of two of its
@@ -332,7 +336,7 @@ def held_two_point(
                     tops_z = [c.support.position[2] - c.length for c in (first, second)]
                     centre = np.mean([c.support.position for c in (first, second)], axis=0)
                     z = float(np.mean(tops_z)) - float(
-                        np.mean([below[a.written] for a in (first_anchor, second_anchor)])
+                        np.mean([below[a.written] or 0.0 for a in (first_anchor, second_anchor)])
                     )
                     estimate = float(np.linalg.norm(np.array([centre[0], centre[1], z]) - goal))
                     yield Design(first_anchor.written, None, branches=(first, second),
@@ -340,7 +344,7 @@ def held_two_point(
 
 
 def _branches(
-    goal: np.ndarray, below: float, tops: list[Point], options: list[Link], owned: Mapping[str, int],
+    goal: np.ndarray, below: float | None, tops: list[Point], options: list[Link], owned: Mapping[str, int],
     pruned: Pruned, hub: tuple[str, Primitive], down: Chain, sides: tuple[Primitive, Primitive], left: int,
     used: Counter[str], seen: set[tuple[object, ...]], anchor: str,
 ) -> Iterator[Design]:  # fmt: skip
@@ -366,7 +370,7 @@ def _branches(
 
 
 def _two_point_estimate(
-    goal: np.ndarray, below: float, holding: Primitive, down: Chain, branches: tuple[Chain, Chain],
+    goal: np.ndarray, below: float | None, holding: Primitive, down: Chain, branches: tuple[Chain, Chain],
     sides: tuple[Primitive, Primitive],
 ) -> float:  # fmt: skip
     """Where the target would hang: the hub level midway between the supports,
@@ -385,7 +389,7 @@ def _two_point_estimate(
     tilt = math.asin(float(np.clip((heights[0] - heights[1]) / max(hub_span, 1.0), -1.0, 1.0)))
     along = (tops[1] - tops[0]) / max(float(np.linalg.norm(tops[1] - tops[0])), 1e-9)
     centre = np.mean(tops, axis=0) + along * swing * math.sin(tilt)
-    z = float(np.mean(heights)) - swing * math.cos(tilt) - down.length - below
+    z = float(np.mean(heights)) - swing * math.cos(tilt) - down.length - (below or 0.0)
     return float(np.linalg.norm(np.array([centre[0], centre[1], z]) - goal))
 
 
