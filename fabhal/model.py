@@ -74,15 +74,16 @@ class Joint:
 
 @dataclass(frozen=True)
 class Standing:
-    """An object standing on a surface (a connection of two surfaces, the larger
-    the floor). Step 1 stands it in the floor's middle (`pinned`); when the hack
-    settles it may slide on the floor, which friction resists, and it topples
-    when its weight acts beyond its base (fabhal/solve/__init__.py)."""
+    """An object standing on a surface (a connection of two surfaces: an
+    environment's, else the larger, is the floor). Step 1 stands it in the
+    floor's middle (`pinned`); when the hack settles it may slide on the floor,
+    which friction resists, and it topples when its weight acts beyond where
+    they touch (fabhal/solve/__init__.py)."""
 
     joint: int
-    floor: str  # the side ("a" or "b") of the larger surface
+    floor: str  # the side ("a" or "b") of the floor (`_floor_and_object`)
     slide: tuple[int, int]  # the floor's t1, t2: where on it the object stands
-    base: tuple[float, float]  # the object's base: its surface's width and length, mm
+    base: tuple[float, float]  # where they touch (width, length), mm: the object's base, or a narrower floor
 
 
 @dataclass(frozen=True)
@@ -772,8 +773,9 @@ def _assemble(program: FlatProgram, parts: tuple[PartInstance, ...]) -> Model:
         offset = alignment_offset(a.primitive, b.primitive, connection.flip)
         held = connection.fixed or _holds_by_itself(a.primitive.kind, b.primitive.kind)
         joints.append(Joint(j, a, b, offset, connection, held))
+    environments = frozenset(i for i, part in enumerate(parts) if part.environment)
     for joint in joints:
-        _keep_on_floor(joint, variables)
+        _keep_on_floor(joint, variables, environments)
         _keep_threaded(joint, variables)
         _jam(joint, variables)
     written = _written_settings(joints, variables)
@@ -787,7 +789,7 @@ def _assemble(program: FlatProgram, parts: tuple[PartInstance, ...]) -> Model:
             i
             for joint in joints
             for i in (
-                *_resting_surface(joint),
+                *_resting_surface(joint, environments),
                 *_fixed_rod_line(joint, parts),
                 *_ring_spin_off_hooks(joint),
                 *_threaded_centre(joint),
@@ -798,7 +800,9 @@ def _assemble(program: FlatProgram, parts: tuple[PartInstance, ...]) -> Model:
         | frozenset(turn.second for turn in together if turn.folded)
     )
     standing = tuple(
-        s for joint in joints if not joint.connection.fixed and (s := _standing(joint)) is not None
+        s
+        for joint in joints
+        if not joint.connection.fixed and (s := _standing(joint, environments)) is not None
     )
     return Model(
         program,
@@ -874,41 +878,51 @@ def _ring_spin_off_hooks(joint: Joint) -> tuple[int, ...]:
     )
 
 
-def _floor_and_object(joint: Joint) -> tuple[Side, Side] | None:
-    """Of a connection of two surfaces, the larger (the floor) and the smaller
-    (the object standing on it); None for other connections."""
+def _floor_and_object(joint: Joint, environments: frozenset[int]) -> tuple[Side, Side] | None:
+    """Of a connection of two surfaces, the floor and the object standing on it:
+    an environment's surface is the floor (a bottle on a pedestal narrower than
+    its base stands on the pedestal), else the larger; None for other connections."""
     a, b = joint.a.primitive, joint.b.primitive
     if a.kind != "surface" or b.kind != "surface":
         return None
+    on_the_world = [side.part in environments for side in (joint.a, joint.b)]
+    if on_the_world[0] != on_the_world[1]:
+        return (joint.a, joint.b) if on_the_world[0] else (joint.b, joint.a)
     area = [p.params["width"] * p.params["length"] for p in (a, b)]
     return (joint.b, joint.a) if area[0] <= area[1] else (joint.a, joint.b)
 
 
-def _resting_surface(joint: Joint) -> tuple[int, ...]:
+def _resting_surface(joint: Joint, environments: frozenset[int]) -> tuple[int, ...]:
     """Where a surface rests on another, the DoFs that place it there: step 1
     stands an object in the middle of what it rests on (the reference does the
     same), so the smaller's t1, t2 and s and the larger's t1, t2 stay at their
     defaults; only the larger's spin s turns it. The solver does not slide a
     bottle across its basket's floor to chase the target: the floor is not a
     designed joint (gravity may slide it there in step 2: `Standing`)."""
-    sides = _floor_and_object(joint)
+    sides = _floor_and_object(joint, environments)
     if sides is None:
         return ()
     floor, standing = sides
     return standing.dof_indices + floor.dof_indices[:2]
 
 
-def _keep_on_floor(joint: Joint, variables: list[DofVariable]) -> None:
+def _keep_on_floor(joint: Joint, variables: list[DofVariable], environments: frozenset[int]) -> None:
     """An object standing on a floor keeps its whole base on it: its centre stays
     half its width and length from the floor's border (the reference's ranges;
-    the base's turn on the floor is not counted). A floor's border is a wall
-    unless the floor says `slide_off: true` (then the object falls off it)."""
-    sides = _floor_and_object(joint)
+    the base's turn on the floor is not counted); where its base is the wider,
+    its centre stays over the floor, and no wall holds it there. A floor's
+    border is a wall unless the floor says `slide_off: true` (then the object
+    falls off it)."""
+    sides = _floor_and_object(joint, environments)
     if sides is None:
         return
     floor, standing = sides
     for i, size in zip(floor.dof_indices[:2], ("width", "length"), strict=True):
-        _keep_within(variables, i, standing.primitive.params[size] / (2.0 * floor.primitive.params[size]))
+        margin = standing.primitive.params[size] / (2.0 * floor.primitive.params[size])
+        if margin < 0.5:
+            _keep_within(variables, i, margin)
+        else:  # a base wider than its floor (a pedestal): its centre stays over it, and past its edge falls
+            variables[i] = replace(variables[i], dof=replace(variables[i].dof, low_open=True, high_open=True))
 
 
 COAXIAL = ({"TubeCtl", "Tube"}, {"TubeCtl", "Rod"})
@@ -1040,14 +1054,16 @@ def _keep_within(variables: list[DofVariable], i: int, margin: float) -> None:
     variables[i] = replace(variables[i], dof=replace(variables[i].dof, low=margin, high=1.0 - margin))
 
 
-def _standing(joint: Joint) -> Standing | None:
-    sides = _floor_and_object(joint)
+def _standing(joint: Joint, environments: frozenset[int]) -> Standing | None:
+    sides = _floor_and_object(joint, environments)
     if sides is None:
         return None
     floor, standing = sides
     t1, t2 = floor.dof_indices[:2]
-    base = standing.primitive.params
-    return Standing(joint.index, "a" if floor is joint.a else "b", (t1, t2), (base["width"], base["length"]))
+    base, under = standing.primitive.params, floor.primitive.params
+    # where they touch: the base, or the floor where it is the narrower (a pedestal)
+    patch = (min(base["width"], under["width"]), min(base["length"], under["length"]))
+    return Standing(joint.index, "a" if floor is joint.a else "b", (t1, t2), patch)
 
 
 def _spanning_tree(

@@ -175,6 +175,54 @@ def test_a_tall_post_falls_over_on_a_steeper_slope_that_friction_holds(tmp_path:
     assert lever - 20.0 * np.sqrt(2.0) - 1.0 < falls[0].beyond_mm < lever - 20.0 + 1.0
 
 
+PEDESTAL = 60.0  # mm: narrower than the bottle's 77 mm base
+
+
+@pytest.mark.parametrize("slope", [0, 10])
+def test_a_bottle_stands_on_a_pedestal_narrower_than_its_base(tmp_path: Path, slope: int) -> None:
+    """A 60 mm square pedestal (an environment) under the bottle's 77 mm base:
+    the pedestal is the floor, though the smaller (it was taken as the object,
+    standing on the bottle, and "`shelf` falls over": E507). Level, or sloping
+    10 degrees (tan 10 = 0.18 < 0.3: friction holds), the bottle stands where
+    it was put, centred (to 0.5 mm: the friction term's smoothing lets a held
+    object creep up to half a millimetre), the pedestal carrying its whole
+    weight (723 g: 7.09 N)."""
+    text = BOTTLE_ON_RAMP.replace("width: 400, length: 400", f"width: {PEDESTAL:g}, length: {PEDESTAL:g}")
+    result = solve_text(tmp_path, text.format(extra="", rot=f"{slope}, 0, 0"))
+    assert result.status == "solved"
+    assert np.allclose(np.multiply(where_on_ramp(result), PEDESTAL), PEDESTAL / 2, atol=0.5)
+    forces = result.solution.forces
+    assert forces is not None
+    assert abs(np.linalg.norm(forces[0]) - 0.723096 * 9.81) < 0.01
+
+
+def test_a_bottle_slides_off_a_pedestal_beyond_the_friction_angle(tmp_path: Path) -> None:
+    """Sloping 20 degrees (tan 20 = 0.36 > 0.3) the bottle slides; no wall holds
+    a base wider than its floor, and once its centre passes the pedestal's edge
+    it falls: E501 at the connection, falls_apart."""
+    text = BOTTLE_ON_RAMP.replace("width: 400, length: 400", f"width: {PEDESTAL:g}, length: {PEDESTAL:g}")
+    result = solve_text(tmp_path, text.format(extra="", rot="20, 0, 0"))
+    assert result.status == "falls_apart"
+    (fall,) = [d for d in result.diagnostics if d.code == "E501"]
+    assert "`soap` slides off" in fall.message and fall.span is not None and fall.span.line == 3
+
+
+@pytest.mark.parametrize(("slope", "stands"), [(3, True), (6, False)])
+def test_a_tall_post_on_a_narrow_pedestal_tips_sooner(tmp_path: Path, slope: int, stands: bool) -> None:
+    """The post's 40 mm foot on a 20 mm square pedestal touches only the
+    pedestal: the push must act within 10 mm of the middle (14.1 across a
+    corner), not the foot's 20. Its centre of mass h (about 145 mm) above the
+    foot: at 3 degrees h tan 3 = 7.6 mm, it stands; at 6 degrees 15.2 mm, beyond
+    even the corner, it falls over (E507), where on the wide ramp it stands
+    (15.2 < 20). Friction holds both (tan 6 = 0.11 < 0.3)."""
+    text = POST_ON_RAMP.replace("width: 400, length: 400", "width: 20, length: 20")
+    result = solve_text(tmp_path, text.format(slope=slope))
+    lever = post_height(result) * np.tan(np.radians(slope))
+    assert (lever < 10.0) if stands else (lever > 10.0 * np.sqrt(2.0))
+    assert result.status == ("solved" if stands else "falls_apart")
+    assert any(d.code == "E507" for d in result.diagnostics) is not stands
+
+
 # ---------------------------------------------------------------- round feet (hemispheres)
 
 STOOL = """\
