@@ -640,7 +640,7 @@ def _solve_once(model: Model, options: SolveOptions, loop_start: Array | None) -
         # thin walls through each other: how far they cross says it, their depth would not
         diagnostics.append(_through_diagnostic(model, *through[0]))
     elif overlaps:
-        diagnostics.append(_overlap_diagnostic(model, *overlaps[0]))
+        diagnostics.append(_overlap_diagnostic(model, x, settled.pairs or pairs, *overlaps[0]))
     else:
         warned = _crossings(model, x, settled.pairs or pairs)
         diagnostics.extend(_crossing_diagnostic(model, *crossing) for crossing in warned[:1])
@@ -1777,7 +1777,9 @@ def _fall_diagnostic(model: Model, fall: Failure) -> Diagnostic:
     )
 
 
-def _overlap_diagnostic(model: Model, part_index: int, other_index: int, depth: float) -> Diagnostic:
+def _overlap_diagnostic(
+    model: Model, x: Array, pairs: Pairs, part_index: int, other_index: int, depth: float
+) -> Diagnostic:
     part, other = (model.parts[i] for i in (part_index, other_index))
     stands = _standing_between(model, part_index, other_index)
     if stands is not None:
@@ -1785,9 +1787,20 @@ def _overlap_diagnostic(model: Model, part_index: int, other_index: int, depth: 
         if floor_side is None:  # on round feet: the surface is the floor
             floor_side = "a" if stands.a.primitive.kind == "surface" else "b"
         floor, thing = (stands.a, stands.b) if floor_side == "a" else (stands.b, stands.a)
+        stood, on = stands.endpoint(thing), stands.endpoint(floor)
+        if _below_the_floor(model, x, pairs, floor, depth):
+            return error(
+                "E508",
+                f"`{stood}` is not the underside of `{model.parts[thing.part].name}`: stood on `{on}` by "
+                f"it, the part is {depth:.1f} mm inside `{model.parts[floor.part].name}`",
+                stands.connection.span,
+                "a part stands on a floor by a surface on its underside; this one lies inside the part "
+                "(a basket's `surface` is the floor of its inside, for what stands in it): stand it by "
+                "another surface, or hang it",
+            )
         return error(
             "E508",
-            f"`{model.parts[thing.part].name}` does not fit where it stands on `{stands.endpoint(floor)}`: "
+            f"`{model.parts[thing.part].name}` does not fit where it stands on `{on}`: "
             f"`{part.name}` is {depth:.1f} mm inside `{other.name}` there",
             stands.connection.span,
             "a standing object must fit between its floor and whatever spans it (a handle across a "
@@ -1801,6 +1814,23 @@ def _overlap_diagnostic(model: Model, part_index: int, other_index: int, depth: 
         "the connections hold them where they would pass through each other: give them room (another "
         "place on what holds them, a longer part), or try another --seed",
     )
+
+
+def _below_the_floor(model: Model, x: Array, pairs: Pairs, floor: Side, depth: float) -> bool:
+    """Whether the check's points found inside, between the standing pair, all
+    lie within the overlap's depth (and a millimetre) of the floor's face: the
+    object's own body below the surface it stands by, not something higher up."""
+    frames = model.part_frames(x)
+    face = model.connector_frame(floor, x, frames)
+    heights = []
+    for k, inside in check(model, x, pairs).deep.items():
+        pair = pairs.pairs[k]
+        if not pair.standing:
+            continue
+        world = inside @ frames[pair.part][:3, :3].T + frames[pair.part][:3, 3]
+        heights.append((world - face[:3, 3]) @ face[:3, 2])
+    found = np.concatenate(heights) if heights else np.zeros(0)
+    return bool(len(found)) and float(np.abs(found).max()) <= depth + 1.0
 
 
 def _standing_between(model: Model, part_index: int, other_index: int) -> Joint | None:

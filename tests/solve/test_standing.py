@@ -175,6 +175,43 @@ def test_a_tall_post_falls_over_on_a_steeper_slope_that_friction_holds(tmp_path:
     assert lever - 20.0 * np.sqrt(2.0) - 1.0 < falls[0].beyond_mm < lever - 20.0 + 1.0
 
 
+BASKET_ON_A_SHELF = """\
+environment shelf = Surface(width: 600, length: 300) at (0, 0, 900)
+basket = Basket()
+soap = SoapBottle()
+connect basket.surface -- shelf
+connect soap.surface -- basket.surface
+target soap.rod at (0, 0, 1000)
+"""
+
+
+def test_a_basket_stood_by_its_inner_floor_is_inside_the_shelf(tmp_path: Path) -> None:
+    """The Basket's `surface` is the floor of its inside (z = 6 mm in its frame;
+    its underside is z = 0): stood on a shelf by it, the basket's bottom is 6 mm
+    inside the shelf. E508 at that connection says the surface is not its
+    underside; the connection holds the two along its normal, so no spring
+    fights it (it did: 1.2 MN of contact, and E507 that the shelf would have to
+    pull the basket down): the shelf carries the weight of basket and bottle,
+    (400 + 723.1) g x 9.81 = 11.02 N (to 0.01 N)."""
+    result = solve_text(tmp_path, BASKET_ON_A_SHELF)
+    assert result.status == "not_at_rest"
+    (overlap,) = [d for d in result.diagnostics if d.code == "E508"]
+    assert overlap.span is not None and overlap.span.line == 4
+    assert "`basket.surface` is not the underside of `basket`" in overlap.message
+    assert "6.0 mm inside `shelf`" in overlap.message
+    assert not any(d.code == "E507" for d in result.diagnostics)
+    solution = result.solution
+    assert solution.contacts == ()
+    forces = solution.forces
+    assert forces is not None
+    shelf_push = next(
+        np.linalg.norm(forces[j.index])
+        for j in solution.model.joints
+        if solution.model.parts[j.a.part].name == "shelf" or solution.model.parts[j.b.part].name == "shelf"
+    )
+    assert abs(shelf_push - 1.1231 * 9.81) < 0.01
+
+
 PEDESTAL = 60.0  # mm: narrower than the bottle's 77 mm base
 
 
