@@ -1763,10 +1763,11 @@ def _fall_diagnostic(model: Model, fall: Failure) -> Diagnostic:
     end = joint.connection.a if variable.side == "a" else joint.connection.b
     primitive = model.side_of(fall.dof).primitive
     value = variable.dof.low if fall.end == "min" else variable.dof.high
+    edge = "edge" if primitive.kind == "surface" else "end"
     where = (
         f"the tip of {primitive.kind} `{end}`"
         if primitive.kind == "hook"
-        else f"the end of {primitive.kind} `{end}` ({variable.dof.name} = {value:g})"
+        else f"the {edge} of {primitive.kind} `{end}` ({variable.dof.name} = {value:g})"
     )
     return error(
         "E501",

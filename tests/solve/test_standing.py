@@ -241,7 +241,8 @@ def test_a_bottle_slides_off_a_pedestal_beyond_the_friction_angle(tmp_path: Path
     result = solve_text(tmp_path, text.format(extra="", rot="20, 0, 0"))
     assert result.status == "falls_apart"
     (fall,) = [d for d in result.diagnostics if d.code == "E501"]
-    assert "`soap` slides off" in fall.message and fall.span is not None and fall.span.line == 3
+    assert "`soap` slides off the edge of surface `ramp`" in fall.message
+    assert fall.span is not None and fall.span.line == 3
 
 
 @pytest.mark.parametrize(("slope", "stands"), [(3, True), (6, False)])
