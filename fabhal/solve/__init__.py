@@ -1789,7 +1789,7 @@ def _overlap_diagnostic(
             floor_side = "a" if stands.a.primitive.kind == "surface" else "b"
         floor, thing = (stands.a, stands.b) if floor_side == "a" else (stands.b, stands.a)
         stood, on = stands.endpoint(thing), stands.endpoint(floor)
-        if _below_the_floor(model, x, pairs, floor, depth):
+        if _below_the_floor(model, x, pairs, floor, frozenset((part_index, other_index)), depth):
             return error(
                 "E508",
                 f"`{stood}` is not the underside of `{model.parts[thing.part].name}`: stood on `{on}` by "
@@ -1817,17 +1817,19 @@ def _overlap_diagnostic(
     )
 
 
-def _below_the_floor(model: Model, x: Array, pairs: Pairs, floor: Side, depth: float) -> bool:
-    """Whether the check's points found inside, between the standing pair, all
-    lie within the overlap's depth (and a millimetre) of the floor's face: the
-    object's own body below the surface it stands by, not something higher up."""
+def _below_the_floor(
+    model: Model, x: Array, pairs: Pairs, floor: Side, both: frozenset[int], depth: float
+) -> bool:
+    """Whether the check's points found inside, between the standing pair `both`,
+    all lie within the overlap's depth (and a millimetre) of the floor's face:
+    the object's own body below the surface it stands by, not something higher up."""
     frames = model.part_frames(x)
     face = model.connector_frame(floor, x, frames)
     heights = []
     for k, inside in check(model, x, pairs).deep.items():
-        pair = pairs.pairs[k]
-        if not pair.standing:
+        if pairs.bodies(k) != both:
             continue
+        pair = pairs.pairs[k]
         world = inside @ frames[pair.part][:3, :3].T + frames[pair.part][:3, 3]
         heights.append((world - face[:3, 3]) @ face[:3, 2])
     found = np.concatenate(heights) if heights else np.zeros(0)
