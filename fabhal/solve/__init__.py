@@ -636,7 +636,14 @@ def _solve_once(model: Model, options: SolveOptions, loop_start: Array | None) -
         )
     through = crossings(model, x, settled.pairs or pairs)
     overlaps = _overlaps(model, x, settled.pairs or pairs, masses)
-    if through and (not overlaps or overlaps[0][2] <= CROSSING_WARNED_MM):
+    standing_through = [c for c in through if _standing_between(model, c[0], c[1]) is not None]
+    if standing_through:  # the connection holds them so: what the two are is the message, not the walls
+        stood, carrier, _ = standing_through[0]
+        depth = check(model, x, settled.pairs or pairs).depth
+        between = [k for k in range(len(pairs)) if pairs.bodies(k) == {stood, carrier}]
+        deepest = float(max(depth[between], default=0.0))
+        diagnostics.append(_overlap_diagnostic(model, x, settled.pairs or pairs, stood, carrier, deepest))
+    elif through and (not overlaps or overlaps[0][2] <= CROSSING_WARNED_MM):
         # thin walls through each other: how far they cross says it, their depth would not
         diagnostics.append(_through_diagnostic(model, *through[0]))
     elif overlaps:
@@ -1789,15 +1796,22 @@ def _overlap_diagnostic(
             floor_side = "a" if stands.a.primitive.kind == "surface" else "b"
         floor, thing = (stands.a, stands.b) if floor_side == "a" else (stands.b, stands.a)
         stood, on = stands.endpoint(thing), stands.endpoint(floor)
-        if _below_the_floor(model, x, pairs, floor, frozenset((part_index, other_index)), depth):
+        if _below_the_floor(model, x, pairs, floor, frozenset((part_index, other_index))):
+            name = model.parts[thing.part].name
+            others = [
+                f"`{name}.{p.name}`"
+                for p in model.parts[thing.part].spec.primitives
+                if p.kind == "surface" and p.name != thing.primitive.name
+            ]
+            instead = f"stand it by {' or '.join(others)}" if others else "stand it by another surface"
             return error(
                 "E508",
-                f"`{stood}` is not the underside of `{model.parts[thing.part].name}`: stood on `{on}` by "
-                f"it, the part is {depth:.1f} mm inside `{model.parts[floor.part].name}`",
+                f"`{stood}` is not the underside of `{name}`: stood on `{on}` by it, the part is "
+                f"{depth:.1f} mm inside `{model.parts[floor.part].name}`",
                 stands.connection.span,
                 "a part stands on a floor by a surface on its underside; this one lies inside the part "
-                "(a basket's `surface` is the floor of its inside, for what stands in it): stand it by "
-                "another surface, or hang it",
+                f"(a basket's `surface` is the floor of its inside, for what stands in it): {instead}, "
+                "or hang it",
             )
         return error(
             "E508",
@@ -1817,12 +1831,10 @@ def _overlap_diagnostic(
     )
 
 
-def _below_the_floor(
-    model: Model, x: Array, pairs: Pairs, floor: Side, both: frozenset[int], depth: float
-) -> bool:
+def _below_the_floor(model: Model, x: Array, pairs: Pairs, floor: Side, both: frozenset[int]) -> bool:
     """Whether the check's points found inside, between the standing pair `both`,
-    all lie within the overlap's depth (and a millimetre) of the floor's face:
-    the object's own body below the surface it stands by, not something higher up."""
+    all lie at or below the floor's face (a millimetre's give): the object's own
+    body below the surface it stands by, not something higher up (a handle)."""
     frames = model.part_frames(x)
     face = model.connector_frame(floor, x, frames)
     heights = []
@@ -1833,7 +1845,7 @@ def _below_the_floor(
         world = inside @ frames[pair.part][:3, :3].T + frames[pair.part][:3, 3]
         heights.append((world - face[:3, 3]) @ face[:3, 2])
     found = np.concatenate(heights) if heights else np.zeros(0)
-    return bool(len(found)) and float(np.abs(found).max()) <= depth + 1.0
+    return bool(len(found)) and float(found.max()) <= 1.0
 
 
 def _standing_between(model: Model, part_index: int, other_index: int) -> Joint | None:

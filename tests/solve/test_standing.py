@@ -198,7 +198,7 @@ def test_a_basket_stood_by_its_inner_floor_is_inside_the_shelf(tmp_path: Path) -
     (overlap,) = [d for d in result.diagnostics if d.code == "E508"]
     assert overlap.span is not None and overlap.span.line == 4
     assert "`basket.surface` is not the underside of `basket`" in overlap.message
-    assert "6.0 mm inside `shelf`" in overlap.message
+    assert "6.0 mm inside `shelf`" in overlap.message and "stand it by `basket.bottom`" in overlap.help
     assert not any(d.code == "E507" for d in result.diagnostics)
     solution = result.solution
     assert solution.contacts == ()
@@ -210,6 +210,21 @@ def test_a_basket_stood_by_its_inner_floor_is_inside_the_shelf(tmp_path: Path) -
         if solution.model.parts[j.a.part].name == "shelf" or solution.model.parts[j.b.part].name == "shelf"
     )
     assert abs(shelf_push - 1.1231 * 9.81) < 0.01
+
+
+def test_a_basket_stood_by_its_bottom_stands_on_the_shelf(tmp_path: Path) -> None:
+    """Stood by `bottom` (its underside, z = 0 in its frame) the basket stands on
+    the shelf (z = 900): its frame at z = 900, and the bottle on its inner floor
+    (z = 6) with its base face 1 mm below its own frame, at z = 907 (to 0.1 mm:
+    the springs' give). Solved; the shelf carries both, 11.02 N."""
+    result = solve_text(
+        tmp_path, BASKET_ON_A_SHELF.replace("basket.surface -- shelf", "basket.bottom -- shelf")
+    )
+    assert result.status == "solved"
+    solution = result.solution
+    basket, soap = (solution.frames[solution.model.part_index(name)] for name in ("basket", "soap"))
+    assert basket[2, 3] == pytest.approx(900.0, abs=0.1) and soap[2, 3] == pytest.approx(907.0, abs=0.1)
+    assert solution.contacts == ()
 
 
 PEDESTAL = 60.0  # mm: narrower than the bottle's 77 mm base
