@@ -1849,11 +1849,12 @@ def _below_the_floor(model: Model, x: Array, pairs: Pairs, floor: Side, both: fr
 
 
 def _standing_between(model: Model, part_index: int, other_index: int) -> Joint | None:
-    """The connection that stands one of the two parts on the other's surface, if any."""
+    """The connection that stands one of the two parts on the other's surface
+    (not `fixed`: glued or pinned, they are not tested together), if any."""
     both = {part_index, other_index}
     for joint in model.joints:
         kinds = {joint.a.primitive.kind, joint.b.primitive.kind}
-        if "surface" in kinds and {joint.a.part, joint.b.part} == both:
+        if "surface" in kinds and {joint.a.part, joint.b.part} == both and not joint.connection.fixed:
             return joint
     return None
 

@@ -238,7 +238,9 @@ class Contact:
 
 def contact_pairs(model: Model, report: Callable[[str], None] | None = None) -> Pairs:
     """Every movable, placed part against every environment with a shape and
-    every other movable part, except two movable parts that a connection joins.
+    every other movable part, except two movable parts that a connection joins
+    and two parts a `fixed` surface connection joins (glued, taped or pinned: a
+    push pin's point goes into the cork).
     Where a surface connection stands the part on the obstacle, or the obstacle
     on it, the pair has the check's points only, less those near the two faces,
     and never springs: the floor's slides keep the object's base off the walls
@@ -262,7 +264,10 @@ def contact_pairs(model: Model, report: Callable[[str], None] | None = None) -> 
     for part in movable:
         for obstacle in obstacles:
             joints = between.get(frozenset((part, obstacle)), [])
-            standing = any("surface" in (j.a.primitive.kind, j.b.primitive.kind) for j in joints)
+            on_surface = [j for j in joints if "surface" in (j.a.primitive.kind, j.b.primitive.kind)]
+            if any(j.connection.fixed for j in on_surface):
+                continue  # glued, taped or pinned to it: what they do where they meet is the builder's
+            standing = bool(on_surface)
             if obstacle == part or (joints and not model.parts[obstacle].environment and not standing):
                 continue
             # (its own primitive, the obstacle's) for each connection joining them

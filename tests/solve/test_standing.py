@@ -227,6 +227,25 @@ def test_a_basket_stood_by_its_bottom_stands_on_the_shelf(tmp_path: Path) -> Non
     assert solution.contacts == ()
 
 
+def test_a_push_pin_fixed_on_a_wall_has_its_point_in_it(tmp_path: Path) -> None:
+    """A Tack `fixed` by its head's face (x = 4 in its frame) to a wall: its
+    needle (rod2, from x = -24.5 to 4.1) runs 28.5 mm behind the face, into the
+    wall, as a pin in cork does. A `fixed` surface connection is the builder's
+    (glued, taped, pinned): the two are not tested against each other, so no
+    E508 (it said the wall was 18.9 mm inside the pin while such pairs were)."""
+    result = solve_text(
+        tmp_path,
+        """\
+environment wall = Surface(width: 400, length: 400) at (0, 0, 1500) rot (90, 0, 0)
+pin = Tack()
+connect pin.surface -- wall fixed
+target pin at (0, 4, 1500) rot (0, 0, -90)
+""",
+    )
+    assert result.status == "solved"
+    assert not any(d.code == "E508" for d in result.diagnostics)
+
+
 PEDESTAL = 60.0  # mm: narrower than the bottle's 77 mm base
 
 
