@@ -10,11 +10,21 @@ from typing import Any
 
 import pytest
 
-from fabhal import bench
+from fabhal import api, bench
 from tests.cli.test_check_command import fabhal
 from tests.conftest import REPO
 
 
+@pytest.fixture
+def warmed() -> None:
+    """The programs solved once in this process first: its first solve also imports
+    the solver and, on an empty cache (as the tests start), builds the contact grids,
+    which the comparisons below are not about (run alone, this file failed so)."""
+    for name in ("charger_holder", *bench.FAMILY):
+        api.solve(REPO / "programs" / f"{name}.fhl")
+
+
+@pytest.mark.usefixtures("warmed")
 def test_bench_records_each_stage_and_the_targets(tmp_path: Path) -> None:
     out = tmp_path / "results.json"
     rows = bench.run([REPO / "programs" / "charger_holder.fhl"], runs=2, output=out, whole_process=True)
@@ -30,6 +40,7 @@ def test_bench_records_each_stage_and_the_targets(tmp_path: Path) -> None:
     assert recorded["program"] == "charger_holder" and recorded["meets_targets"] == row.meets_targets
 
 
+@pytest.mark.usefixtures("warmed")
 def test_the_clip_light_family_is_one_extra_row(tmp_path: Path) -> None:
     programs = [REPO / "programs" / f"{name}.fhl" for name in bench.FAMILY]
     rows = bench.run(programs, runs=1, output=None, whole_process=False)
