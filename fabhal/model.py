@@ -71,6 +71,12 @@ class Joint:
         """The program's `part.primitive` for one side of this joint."""
         return self.connection.a if side is self.a else self.connection.b
 
+    @property
+    def stands(self) -> bool:
+        """One part stands on the other's surface (by a surface or round feet),
+        not `fixed` to it (glued, taped or pinned)."""
+        return "surface" in (self.a.primitive.kind, self.b.primitive.kind) and not self.connection.fixed
+
 
 @dataclass(frozen=True)
 class Standing:

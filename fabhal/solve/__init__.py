@@ -634,22 +634,24 @@ def _solve_once(model: Model, options: SolveOptions, loop_start: Array | None) -
                 "and report the program",
             )
         )
-    through = crossings(model, x, settled.pairs or pairs)
-    overlaps = _overlaps(model, x, settled.pairs or pairs, masses)
+    looked = settled.pairs or pairs  # the contact as the settle ended with it
+    through = crossings(model, x, looked)
+    overlaps = _overlaps(model, x, looked, masses)
     standing_through = [c for c in through if _standing_between(model, c[0], c[1]) is not None]
     if standing_through:  # the connection holds them so: what the two are is the message, not the walls
         stood, carrier, _ = standing_through[0]
-        depth = check(model, x, settled.pairs or pairs).depth
-        between = [k for k in range(len(pairs)) if pairs.bodies(k) == {stood, carrier}]
-        deepest = float(max(depth[between], default=0.0))
-        diagnostics.append(_overlap_diagnostic(model, x, settled.pairs or pairs, stood, carrier, deepest))
+        deepest = max(
+            (d for p, o, d in check(model, x, looked).overlaps(looked, 0.0) if {p, o} == {stood, carrier}),
+            default=0.0,
+        )
+        diagnostics.append(_overlap_diagnostic(model, x, looked, stood, carrier, deepest))
     elif through and (not overlaps or overlaps[0][2] <= CROSSING_WARNED_MM):
         # thin walls through each other: how far they cross says it, their depth would not
         diagnostics.append(_through_diagnostic(model, *through[0]))
     elif overlaps:
-        diagnostics.append(_overlap_diagnostic(model, x, settled.pairs or pairs, *overlaps[0]))
+        diagnostics.append(_overlap_diagnostic(model, x, looked, *overlaps[0]))
     else:
-        warned = _crossings(model, x, settled.pairs or pairs)
+        warned = _crossings(model, x, looked)
         diagnostics.extend(_crossing_diagnostic(model, *crossing) for crossing in warned[:1])
     if any(not isinstance(fall, Lean | Slip) for fall in settled.falls):
         status = "falls_apart"
@@ -1852,11 +1854,7 @@ def _standing_between(model: Model, part_index: int, other_index: int) -> Joint 
     """The connection that stands one of the two parts on the other's surface
     (not `fixed`: glued or pinned, they are not tested together), if any."""
     both = {part_index, other_index}
-    for joint in model.joints:
-        kinds = {joint.a.primitive.kind, joint.b.primitive.kind}
-        if "surface" in kinds and {joint.a.part, joint.b.part} == both and not joint.connection.fixed:
-            return joint
-    return None
+    return next((j for j in model.joints if j.stands and {j.a.part, j.b.part} == both), None)
 
 
 def _through_diagnostic(model: Model, part_index: int, other_index: int, span: float) -> Diagnostic:

@@ -264,10 +264,9 @@ def contact_pairs(model: Model, report: Callable[[str], None] | None = None) -> 
     for part in movable:
         for obstacle in obstacles:
             joints = between.get(frozenset((part, obstacle)), [])
-            on_surface = [j for j in joints if "surface" in (j.a.primitive.kind, j.b.primitive.kind)]
-            if any(j.connection.fixed for j in on_surface):
+            if any("surface" in (j.a.primitive.kind, j.b.primitive.kind) and not j.stands for j in joints):
                 continue  # glued, taped or pinned to it: what they do where they meet is the builder's
-            standing = bool(on_surface)
+            standing = any(j.stands for j in joints)
             if obstacle == part or (joints and not model.parts[obstacle].environment and not standing):
                 continue
             # (its own primitive, the obstacle's) for each connection joining them

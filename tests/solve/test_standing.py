@@ -247,6 +247,9 @@ target pin at (0, 4, 1500) rot (0, 0, -90)
 
 
 PEDESTAL = 60.0  # mm: narrower than the bottle's 77 mm base
+BOTTLE_ON_PEDESTAL = BOTTLE_ON_RAMP.replace(
+    "width: 400, length: 400", f"width: {PEDESTAL:g}, length: {PEDESTAL:g}"
+)
 
 
 @pytest.mark.parametrize("slope", [0, 10])
@@ -258,8 +261,7 @@ def test_a_bottle_stands_on_a_pedestal_narrower_than_its_base(tmp_path: Path, sl
     it was put, centred (to 0.5 mm: the friction term's smoothing lets a held
     object creep up to half a millimetre), the pedestal carrying its whole
     weight (723 g: 7.09 N)."""
-    text = BOTTLE_ON_RAMP.replace("width: 400, length: 400", f"width: {PEDESTAL:g}, length: {PEDESTAL:g}")
-    result = solve_text(tmp_path, text.format(extra="", rot=f"{slope}, 0, 0"))
+    result = solve_text(tmp_path, BOTTLE_ON_PEDESTAL.format(extra="", rot=f"{slope}, 0, 0"))
     assert result.status == "solved"
     assert np.allclose(np.multiply(where_on_ramp(result), PEDESTAL), PEDESTAL / 2, atol=0.5)
     forces = result.solution.forces
@@ -271,8 +273,7 @@ def test_a_bottle_slides_off_a_pedestal_beyond_the_friction_angle(tmp_path: Path
     """Sloping 20 degrees (tan 20 = 0.36 > 0.3) the bottle slides; no wall holds
     a base wider than its floor, and once its centre passes the pedestal's edge
     it falls: E501 at the connection, falls_apart."""
-    text = BOTTLE_ON_RAMP.replace("width: 400, length: 400", f"width: {PEDESTAL:g}, length: {PEDESTAL:g}")
-    result = solve_text(tmp_path, text.format(extra="", rot="20, 0, 0"))
+    result = solve_text(tmp_path, BOTTLE_ON_PEDESTAL.format(extra="", rot="20, 0, 0"))
     assert result.status == "falls_apart"
     (fall,) = [d for d in result.diagnostics if d.code == "E501"]
     assert "`soap` slides off the edge of surface `ramp`" in fall.message
