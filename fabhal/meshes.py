@@ -293,9 +293,12 @@ def _file_digest(path: Path) -> bytes:
 
 # an environment's distance grid reaches this far beyond its mesh (mm)
 CONTACT_MARGIN_MM = 50.0
-# a piece of an environment's mesh thinner than this is a sheet with no inside
-# (a decal on a wall): not an obstacle; walls and floors are modelled as solids
+# a piece of a mesh thinner than this, joined to nothing thicker, is a sheet with no
+# inside (a decal on a wall): not an obstacle; walls and floors are modelled as solids
 SHEET_MM = 1.0
+# a flat piece smaller than this (mm^2) is a sliver a scan left, not a face (a broom
+# handle's end cap has 178 of 0.7 mm^2)
+SLIVER_MM2 = 1.0
 # a slab this thick stands behind an environment's surface primitive (a wall, a counter top)
 SURFACE_SLAB_MM = 40.0
 # points sampled on a movable part's surface to keep out of the environment:
@@ -426,19 +429,55 @@ def _build_hull_grid(spec: PartSpec) -> DistanceGrid:
 
 
 def _mesh_grid(mesh: trimesh.Trimesh) -> DistanceGrid:
-    import trimesh
-
     low = np.asarray(mesh.bounds[0]) - CONTACT_MARGIN_MM
     high = np.asarray(mesh.bounds[1]) + CONTACT_MARGIN_MM
     sample_spacing = grid_spacing(low, high) / 2
     surfaces = []
-    for piece in mesh.split(only_watertight=False):
-        if piece.extents.min() < SHEET_MM:
-            continue
-        count = max(int(piece.area / sample_spacing**2), 100)
-        points, faces = trimesh.sample.sample_surface(piece, count, seed=0)
-        surfaces.append((np.asarray(points), np.asarray(piece.face_normals[faces])))
+    for pieces in _closed_surfaces(mesh):
+        points, normals = zip(*(_surface_samples(piece, sample_spacing) for piece in pieces), strict=True)
+        surfaces.append((np.concatenate(points), np.concatenate(normals)))
     return signed_distance_grid(surfaces, low, high)
+
+
+def _surface_samples(piece: trimesh.Trimesh, spacing: float) -> tuple[Array, Array]:
+    """Points about `spacing` apart on the piece (at least 100), with their outward normals."""
+    import trimesh
+
+    count = max(int(piece.area / spacing**2), 100)
+    points, faces = trimesh.sample.sample_surface(piece, count, seed=0)
+    return np.asarray(points), np.asarray(piece.face_normals[faces])
+
+
+def _closed_surfaces(mesh: trimesh.Trimesh) -> list[list[trimesh.Trimesh]]:
+    """The mesh's closed surfaces, each as the pieces (faces joined by their
+    edges) that make it up. A piece is one surface unless a flat piece (thinner
+    than SHEET_MM) shares a vertex with it: a board scanned with its front face
+    and its sides not stitched along their edges is one solid, whose pieces the
+    grid must measure together (apart, the face alone read everything behind it
+    as inside, and the sides everything in front). A flat piece that shares no
+    vertex with a thicker one is a sheet (a decal on a wall): no inside."""
+    import trimesh
+
+    component = {}
+    for label, vertices in enumerate(
+        trimesh.graph.connected_components(mesh.edges, nodes=np.arange(len(mesh.vertices)), min_len=1)
+    ):
+        component.update(dict.fromkeys(map(tuple, mesh.vertices[vertices].tolist()), label))
+    joined: dict[int, list[trimesh.Trimesh]] = {}
+    for piece in mesh.split(only_watertight=False):
+        if piece.area >= SLIVER_MM2 or not _flat(piece):  # a scan's flat slivers bound nothing
+            joined.setdefault(component[tuple(piece.vertices[0].tolist())], []).append(piece)
+    surfaces = []
+    for pieces in joined.values():
+        flat = [_flat(piece) for piece in pieces]
+        if all(flat):
+            continue
+        surfaces.extend([pieces] if any(flat) else [[piece] for piece in pieces])
+    return surfaces
+
+
+def _flat(piece: trimesh.Trimesh) -> bool:
+    return bool(piece.extents.min() < SHEET_MM)
 
 
 def _sample_points(

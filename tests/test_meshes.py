@@ -163,6 +163,34 @@ def test_a_hull_grid_fills_what_the_surface_leaves_open() -> None:
     assert surface[2] == pytest.approx(-1.1, abs=0.5) and hull[2] == pytest.approx(-1.1, abs=0.5)
 
 
+def test_a_board_whose_faces_the_scan_did_not_stitch_is_one_solid() -> None:
+    """The Board's mesh: a 280 x 180 panel from y = -10 to 0 in a rim 15 mm
+    thick, its front face (y = 0) and its sides pieces that share vertices but
+    no edges. Measured piece by piece, the face alone read everything behind
+    it inside and the rest everything in front: 2 mm in front of the face,
+    (0, 2, 0), read 12 mm inside. As one solid: +2 there, -5 half-way through
+    the panel (0, -5, 0), +5 in the back recess 5 mm behind the panel (0, -15,
+    0), and inside the rim at (145, -5, 95). Tolerance 1 mm: the grid's cells
+    are 3 mm, the face sampled at random half a cell apart."""
+    grid = contact_grid(part("Board"))
+    points = np.array([[0.0, 2.0, 0.0], [0.0, -5.0, 0.0], [0.0, -15.0, 0.0], [145.0, -5.0, 95.0]])
+    distance = grid.sample(points)[0]
+    assert distance[:3] == pytest.approx([2.0, -5.0, 5.0], abs=1.0)
+    assert distance[3] < -2.0
+
+
+def test_a_decal_on_a_wall_is_no_obstacle() -> None:
+    """The paper-towel scene's wall carries a flat sheet 500 x 150 mm (0.1 mm
+    thick) that shares no vertex with anything thicker: it has no inside and
+    is left out of the surfaces the grid measures; every other piece is kept."""
+    from fabhal.meshes import _closed_surfaces
+
+    mesh = part_mesh(part("TowelHangingEnv"))
+    kept = [piece for pieces in _closed_surfaces(mesh) for piece in pieces]
+    assert len(kept) == len(mesh.split(only_watertight=False)) - 1
+    assert all(piece.extents.min() >= 1.0 for piece in kept)
+
+
 @pytest.mark.parametrize("grid", [contact_grid, hull_grid], ids=["surface", "hull"])
 def test_a_grid_is_built_once_per_machine(
     grid: Callable[..., object], tmp_path: Path, monkeypatch: pytest.MonkeyPatch

@@ -37,14 +37,15 @@ def conformance_cases() -> list[dict]:
 
 # our parts that the reference does not have: each one of its parts with a flag added
 OURS_ONLY = {"LevelHulaHoop": "HulaHoop"}
-# primitives whose size the library corrects (stdlib_parts/ says why at each): their
-# frames are compared at the reference's size, the formula being what is tested
+# primitives whose size or placement the library corrects (stdlib_parts/ says why at
+# each): their frames are compared at the reference's, the formula being what is tested
 REFERENCE_SIZES = {
     ("Basket", "surface"): {"width": 248.0, "length": 248.0},
     ("BasketBase", "surface"): {"width": 118.0},
     ("HandleBasket", "surface"): {"width": 118.0},
     ("TwoholeBasket", "surface"): {"width": 340.0, "length": 235.0},
 }
+REFERENCE_ROTATIONS = {("Board", "surface2"): (90.0, 0.0, 0.0)}
 
 
 # primitives the library adds to the reference's parts (stdlib_parts/ says why at each)
@@ -81,16 +82,18 @@ def test_connector_frames_match_the_reference(case: dict) -> None:
     # tolerance 1e-6: the reference's matrices are printed to 9 decimals
     primitive = part(case["part"]).primitive(case["primitive"])
     assert primitive is not None
-    resized = REFERENCE_SIZES.get((case["part"], case["primitive"]))
-    if resized is not None:
-        assert any(primitive.params[k] != v for k, v in resized.items()), "no longer resized"
+    key = (case["part"], case["primitive"])
+    resized, turned = REFERENCE_SIZES.get(key, {}), REFERENCE_ROTATIONS.get(key)
+    if resized or turned:
+        assert not resized or any(primitive.params[k] != v for k, v in resized.items()), "no longer resized"
+        assert turned is None or turned != primitive.rotation, "no longer turned"
         primitive = make_primitive(
             primitive.name,
             primitive.kind,
             {**primitive.params, **resized},
             primitive.flags,
             primitive.position,
-            primitive.rotation,
+            turned or primitive.rotation,
         )
     assert primitive.variant == case["variant"]
     reference_dofs = [d["name"] for d in case["dofs"]]

@@ -246,6 +246,35 @@ target pin at (0, 4, 1500) rot (0, 0, -90)
     assert not any(d.code == "E508" for d in result.diagnostics)
 
 
+@pytest.mark.parametrize(("face", "turn", "floor"), [("surface2", 90, 500.0), ("surface1", -90, 510.0)])
+def test_a_bottle_stands_on_either_face_of_a_board(
+    tmp_path: Path, face: str, turn: int, floor: float
+) -> None:
+    """The Board's mesh is a panel 10 mm thick (y from -10 to 0 in its frame) in a
+    rim 15 mm thick. Laid flat at z = 500 front up (rot (90, 0, 0) takes +y to
+    +z), its front face surface2 (y = 0) is the floor at z = 500; back up (rot
+    (-90, 0, 0) takes -y to +z), the panel's back surface1 (y = -10) is at z =
+    510, in the rim's 5 mm recess (the bottle's 77 mm base is far inside the 180
+    x 280 panel). The bottle's base face is its frame's z = -1, so its frame
+    stands at floor + 1 (to 0.1 mm: the springs' give), touching nothing else.
+    (The reference's front face faced into the board, and the board's grid read
+    inside everywhere in front of it, its face split from its sides in the
+    mesh: E508, the bottle 22 mm inside the board.)"""
+    result = solve_text(
+        tmp_path,
+        f"""\
+environment board = Board() at (0, 0, 500) rot ({turn}, 0, 0)
+soap = SoapBottle()
+connect soap.surface -- board.{face}
+target soap at (0, 0, {floor + 1:g})
+""",
+    )
+    assert result.status == "solved", result.diagnostics
+    solution = result.solution
+    assert solution.frames[solution.model.part_index("soap")][2, 3] == pytest.approx(floor + 1, abs=0.1)
+    assert solution.contacts == ()
+
+
 PEDESTAL = 60.0  # mm: narrower than the bottle's 77 mm base
 BOTTLE_ON_PEDESTAL = BOTTLE_ON_RAMP.replace(
     "width: 400, length: 400", f"width: {PEDESTAL:g}, length: {PEDESTAL:g}"
