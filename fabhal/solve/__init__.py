@@ -1945,12 +1945,20 @@ def _topple_diagnostic(model: Model, topple: Topple) -> Diagnostic:
     )
 
 
+# beyond this the feet's pull along the floor over their push into it is no number to read
+SLIP_RATIO_SHOWN = 100.0
+
+
 def _slip_diagnostic(model: Model, slip: Slip) -> Diagnostic:
+    pull = (
+        f"they pull along the floor {slip.ratio:.2f} times as hard as they push into it"
+        if slip.ratio < SLIP_RATIO_SHOWN
+        else "they hardly press on the floor at all"
+    )
     return error(
         "E510",
-        f"not at rest: `{slip.part}` slides on its round feet (they pull along the floor "
-        f"{slip.ratio:.2f} times as hard as they push into it; friction holds up to {FRICTION}: the floor "
-        f"slopes {slip.slope_deg:.0f} degrees)",
+        f"not at rest: `{slip.part}` slides on its round feet ({pull}; friction holds up to {FRICTION}: "
+        f"the floor slopes {slip.slope_deg:.0f} degrees)",
         model.joints[slip.joint].connection.span,
         f"level the floor below atan {FRICTION} = {np.degrees(np.arctan(FRICTION)):.1f} degrees, "
         "or stand the object against something that stops it",
