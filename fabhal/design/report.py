@@ -1,6 +1,6 @@
 """What `fabhal design` prints and writes: the counts of the search, the ranked
 designs, the best per number of parts, whether the inventory reaches the
-target (and if not, how far the closest design falls short), the designs as
+target (and if not, how far off the closest design hangs), the designs as
 programs and pictures."""
 
 from __future__ import annotations
@@ -76,9 +76,17 @@ def verdict(search: DesignPlan, outcome: DesignOutcome, options: DesignOptions) 
     if reaches(outcome, options):
         within = f"within {options.tolerance_mm:g} mm"
         return f"reached: the best design settles {error:.1f} mm from the request ({within})"
+    beside = all("W506" in m.notes for m in outcome.members if m.status == "solved")
+    why = (
+        "; every design hangs the target under the support it hangs from, and the request is beside it "
+        "(W506: `fabhal solve` one, from --emit, says by how much): ask for a place under the support"
+        if beside and best.status == "solved"
+        else ""
+    )
     return (
         f"cannot reach within {options.tolerance_mm:g} mm with this inventory: the closest design hangs the "
-        f"target {error:.1f} mm from the request, {error - options.tolerance_mm:.1f} mm short ({best.key})"
+        f"target {error:.1f} mm from the request, {error - options.tolerance_mm:.1f} mm more than asked "
+        f"({best.key}){why}"
     )
 
 

@@ -99,7 +99,35 @@ def test_an_inventory_that_cannot_reach_says_how_far_it_falls_short(tmp_path: Pa
     assert "look too short to reach the target, every one" in run.stdout
     verdict = run.stdout.strip().splitlines()[-1] + run.stdout.strip().splitlines()[-2]
     assert "cannot reach within 10 mm with this inventory: the closest design hangs the target" in run.stdout
-    assert "mm short" in verdict
+    assert "mm more than asked" in verdict and "W506" not in verdict
+
+
+def test_a_request_beside_the_only_support_is_said_to_be_beside_it(tmp_path: Path) -> None:
+    """A bird feeder from one ceiling hook, asked 60 mm to its side: whatever
+    chain holds it, it hangs with its weight under the hook, so every design
+    settles about 60 mm from the request (hand: the request's horizontal
+    distance from the hook, sqrt(60^2 + 0^2); to 2 mm, the feeder's ring
+    hanging on the chain's last wire a millimetre or two aside). The verdict
+    says why (W506 in every solved design), not only how far."""
+    spec = tmp_path / "feeder.fhl"
+    spec.write_text(
+        """\
+environment ceiling = CeilingHook() at (0, 0, 2000)
+feeder = BirdFeeder()
+target feeder.ring at (60, 0, 1700)
+"""
+    )
+    (tmp_path / "mine.toml").write_text("DoubleHook = 2\nRingM = 1\n")
+    run = fabhal("design", str(spec), "--inventory", str(tmp_path / "mine.toml"), "-j", "1", "--json")
+    assert run.returncode == 1, run.stderr
+    designs = json.loads(run.stdout)["designs"]
+    solved = [d for d in designs if d["status"] == "solved"]
+    assert solved and all("W506" in d["notes"] for d in solved)
+    assert min(d["position_mm"] for d in solved) == pytest.approx(60.0, abs=2.0)
+    text = " ".join(
+        fabhal("design", str(spec), "--inventory", str(tmp_path / "mine.toml"), "-j", "1").stdout.split()
+    )
+    assert "the request is beside it" in text and "ask for a place under the support" in text
 
 
 def test_an_inventory_that_cannot_connect_says_which_rules_stopped_it(tmp_path: Path) -> None:
