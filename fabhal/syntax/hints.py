@@ -304,11 +304,16 @@ def _positional_argument(ctx: ErrorContext) -> Diagnostic | None:
 def _missing_value(ctx: ErrorContext) -> Diagnostic | None:
     if not {"NUMBER", "NAME", "LPAR"} <= ctx.expected:
         return None
+    first, previous = ctx.statement_first, ctx.previous
+    domain = first is not None and first.value == "param" and previous is not None and previous.value == "in"
     return error(
         "E108",
         f"expected a value, found {ctx.found}",
         ctx.span,
-        "write a number, a name or an expression such as `40 + extension / 2`",
+        "a param's values are a range `1 .. 4`, `linspace(0, 45.7, 21)` or a list in square brackets "
+        "`[RingS, RingM]`"
+        if domain
+        else "write a number, a name or an expression such as `40 + extension / 2`",
     )
 
 
