@@ -18,9 +18,9 @@ from fabhal.check.cycles import close_loops
 from fabhal.diagnostics import Diagnostic, Severity, error, listed, warning
 from fabhal.elaborate import Connection
 from fabhal.kinematics.frames import Array
-from fabhal.kinematics.statics import MOMENT_ARM_MM, Wrenches, pressing
+from fabhal.kinematics.statics import Wrenches
 from fabhal.meshes import mass_properties
-from fabhal.model import Joint, Model, Side, build_model, threaded
+from fabhal.model import Joint, Model, Side, build_model
 from fabhal.optimize import Result
 from fabhal.solve import aim as aim_mod
 from fabhal.solve import reach
@@ -37,12 +37,24 @@ from fabhal.solve.contacts import (
     with_contacts,
 )
 from fabhal.solve.energy import Energy
+from fabhal.solve.falls import (
+    Failure,
+    Fall,
+    Lean,
+    LiftOff,
+    Slip,
+    Topple,
+    fall_diagnostic,
+    falling_part,
+    lifts_off,
+    tips_off_its_feet,
+    topples,
+)
 from fabhal.solve.forces import (
     Slide,
     connection_wrenches,
     friction_slides,
     normal_forces,
-    point_contacts,
     slide_dofs,
     weight_newtons,
 )
@@ -57,6 +69,7 @@ from fabhal.solve.spacing import (
 )
 from fabhal.solve.steps import (
     FRICTION,
+    FRICTION_AGREEMENT,
     FRICTION_SMOOTHING_MM,
     Fit,
     Problem,
@@ -108,10 +121,9 @@ BOUND_TOLERANCE = 1e-6  # a DoF within this fraction of its range from an end re
 EQUILIBRIUM_TOLERANCE = 1e-3
 # settling stops at a tenth of that: the verification then has room for rounding
 SETTLE_TOLERANCE = 0.1 * EQUILIBRIUM_TOLERANCE
-# settling again while the contacts' normal forces still change (friction comes from them)
+# settling again while the contacts' normal forces still change by more than
+# FRICTION_AGREEMENT (friction comes from them)
 FRICTION_ROUNDS = 3
-# ...by more than this fraction of the assembly's weight (times FRICTION)
-FRICTION_AGREEMENT = 0.01
 # two settled results from different starts are the same when their targets are
 # this close: a builder's precision (see fabhal/solve/reach.py)
 DISAGREE_MM = 5.0
@@ -120,9 +132,6 @@ DISAGREE_DEG = 5.0
 # degree counts as a mm) is held by nothing real: the gallery's leans rest on their stops
 # with at most 0.0009, the basket on two eye hooks written without `flip` with 0.52
 LEAN_CARRIES = 0.01
-# a standing object falls over when its floor would have to push beyond the edge
-# of its base by more than this (the base's rim is not a knife edge)
-TOPPLE_MARGIN_MM = 0.5
 
 
 @dataclass(frozen=True)
@@ -155,67 +164,6 @@ class NumericFailure(Exception):
     def __init__(self, step: str, part: str) -> None:
         self.step, self.part = step, part
         super().__init__(f"non-finite numbers in {step} at part {part}")
-
-
-@dataclass(frozen=True)
-class Fall:
-    joint: int
-    dof: int  # index into the model's variables
-    end: str  # "min" or "max"
-    part: str  # the part that comes off
-
-
-@dataclass(frozen=True)
-class Slip:
-    """An object on round feet on a floor steeper than friction holds: its feet
-    would slide (where it ends, against a wall or off the floor, is not computed)."""
-
-    joint: int  # the connection of one of its feet and the floor
-    part: str
-    ratio: float  # the feet's pull along the floor over their push into it (holds up to FRICTION)
-    slope_deg: float
-
-
-@dataclass(frozen=True)
-class Lean:
-    """A lean (a flex angle: a hook tilting on the rod it hangs from) pushed
-    against the end of its range: the range is the model's, a real hook would
-    tilt on, so the pose is not one the real objects rest in."""
-
-    joint: int
-    dof: int
-    end: str  # "min" or "max"
-    push: float  # the generalised force on the stop, per mm of motion, over the weight
-    part: str  # the part whose lean it is
-
-
-@dataclass(frozen=True)
-class LiftOff:
-    """A contact that would have to pull: the parts of a hook, ring or rod
-    connection only press on each other (along the contact's normal), so where
-    the statics needs the one to pull the other, the real parts separate there
-    (a hook hung from the inside of a ring's top, pulled down by what hangs
-    from it). Where they go then is not computed."""
-
-    joint: int
-    holder: str  # the side that would have to pull (the placed one: nearer the environment)
-    held: str  # the side it would have to pull, whose part lifts off
-    part: str  # that part
-    pull: float  # N: the force along the contact's normal the holder would have to pull with
-
-
-@dataclass(frozen=True)
-class Topple:
-    joint: int  # the connection of the object and the floor it stands on
-    part: str  # the object that falls over
-    beyond_mm: float  # how far beyond its base's edge the floor would have to push (inf: it lifts off)
-    slope_deg: float  # the floor's slope
-    floor: str  # the connection's side ("a" or "b") that is the floor
-    on_feet: bool = False  # it stands on round feet (points), not on a base
-
-
-# what keeps a result from being at rest, each said by an error
-Failure = Fall | Topple | Lean | Slip | LiftOff
 
 
 @dataclass(frozen=True)
@@ -622,7 +570,7 @@ def _solve_once(model: Model, options: SolveOptions, loop_start: Array | None) -
                 # it is turned as asked and rests beside or below it for what W506 or W511 says
                 notes = [n for n in notes if n.code != "W505"]
             notes.append(aside)
-    diagnostics = [*notes, *(_fall_diagnostic(model, f) for f in settled.falls)]
+    diagnostics = [*notes, *(fall_diagnostic(model, f) for f in settled.falls)]
     gap = closure_residual_mm(model, x)
     if gap > LOOP_KEPT_MM:
         diagnostics.append(
@@ -1200,151 +1148,9 @@ def _settle_with(
         equilibrium, at_bound, falls = _verify(step2, energy, x, masses, holding)
     contacts = contacts_at(model, x, pairs, weight)
     wrenches = _wrenches(step2, x, masses, centres, slides, contacts)
-    topples = (*_topples(model, x, wrenches, set(at_bound)), *_tips_off_its_feet(model, x, wrenches, weight))
-    lifts = _lifts_off(model, x, wrenches, masses)
-    return Settled(x, equilibrium, at_bound, (*falls, *topples, *lifts), wrenches.forces, contacts, leaning)
-
-
-# a contact "pulls" where the pull along its normal is over this fraction of the assembly's
-# weight: the statics' split of a loop's load (least squares) leaves a few thousandths
-# of it on contacts that carry nothing (the caddy's lower S-hooks: 0.002 N)
-LIFT_CARRIES = 0.01
-
-
-def _lifts_off(model: Model, x: Array, wrenches: Wrenches, masses: Array) -> tuple[LiftOff, ...]:
-    """The connections that would have to pull (`LiftOff`): of those that only
-    press (`_presses_only`), where the force side a exerts on side b points
-    against a's normal (the connector frame's z points from a's material to
-    what it holds: the gallery's hooks, rings and rods all press along it).
-    In a loop the statics' smallest wrenches are one split of the load among
-    many: a contact pulls only where no split (the loop's own force states
-    added, and those it nearly has, within the settle's slack: chains hanging
-    straight; `statics.pressing`) lets every contact press (a mug hung on a rod
-    and on the S-hook beside it: the smallest split has the handle pull the
-    S-hook up; another has it carry the S-hook's weight)."""
-    joints = [joint for joint in model.joints if _presses_only(joint)]
-    if not joints:
-        return ()
-    frames = model.part_frames(x)
-    index = np.array([joint.index for joint in joints])
-    normals = np.array([model.connector_frame(joint.a, x, frames)[:3, 2] for joint in joints])
-    along = pressing(
-        np.einsum("jk,jk->j", wrenches.forces[index], normals),
-        np.einsum("sjk,jk->sj", wrenches.indeterminate[:, index], normals),
-        wrenches.reach,
-        wrenches.taken,
-    )
-    limit = LIFT_CARRIES * float(weight_newtons(masses).sum())
-    lifts = []
-    for joint, force in zip(joints, along, strict=True):
-        if -force > limit:
-            holder, held = _holder_and_held(model, joint)
-            name = model.parts[held.part].name
-            lifts.append(
-                LiftOff(joint.index, str(joint.endpoint(holder)), str(joint.endpoint(held)), name, -force)
-            )
-    return tuple(lifts)
-
-
-def _holder_and_held(model: Model, joint: Joint) -> tuple[Side, Side]:
-    """A connection's sides, the one nearer the environment first: an
-    environment's, else the side the spanning tree hangs the other from."""
-    if model.parts[joint.b.part].environment or model.tree_child.get(joint.index) == joint.a.part:
-        return joint.b, joint.a
-    return joint.a, joint.b
-
-
-def _presses_only(joint: Joint) -> bool:
-    """Whether a connection's parts can only press on each other: a hook, ring
-    or rod resting on another, not held (a clip's grip, `fixed`, standing on a
-    floor: those carry either way, or are judged as standing), not a sleeve
-    threaded on a rod (it holds it all round)."""
-    kinds = {joint.a.primitive.kind, joint.b.primitive.kind}
-    return not joint.held and threaded(joint) is None and kinds <= {"hook", "hole", "rod", "tube", "edge"}
-
-
-def _topples(model: Model, x: Array, wrenches: Wrenches, at_bound: set[int]) -> tuple[Topple, ...]:
-    """The standing objects that would fall over: where the floor's push would
-    have to act outside the object's base. A floor carries an object by a
-    pressure spread over the base; its resultant, N along the floor's normal n,
-    acts at the centre of pressure c (from the contact point), and the moment it
-    carries about the contact point is M = c x N n, so c = n x M / N. Within the
-    base, the object stands; beyond its edge, no pressure can balance it and it
-    tips over that edge. An object pushed against its floor's wall (its slide on
-    an end of its range) leans on the wall and is not tested."""
-    frames = model.part_frames(x)
-    topples = []
-    for standing in model.standing:
-        if at_bound & set(standing.slide):
-            continue
-        joint = model.joints[standing.joint]
-        floor, thing = (joint.a, joint.b) if standing.floor == "a" else (joint.b, joint.a)
-        sign = 1.0 if standing.floor == "a" else -1.0  # the wrench is what a exerts on b
-        force, moment = sign * wrenches.forces[joint.index], sign * wrenches.moments[joint.index]
-        normal = model.connector_frame(floor, x, frames)[:3, 2]
-        base = model.connector_frame(thing, x, frames)[:3, :2]  # along the base's length (x), width (y)
-        pressing = float(force @ normal)
-        width, length = standing.base
-        if pressing <= 0.0:
-            beyond = float("inf")  # the floor would have to pull: it lifts off
-        else:
-            centre = base.T @ np.cross(normal, moment) / pressing
-            beyond = float(np.max(np.abs(centre) - (length / 2.0, width / 2.0)))
-        if beyond > TOPPLE_MARGIN_MM:
-            slope = _slope(normal)
-            topples.append(Topple(joint.index, model.parts[thing.part].name, beyond, slope, standing.floor))
-    return tuple(topples)
-
-
-def _tips_off_its_feet(
-    model: Model, x: Array, wrenches: Wrenches, weight: float
-) -> tuple[Topple | Slip, ...]:
-    """Objects on round feet (hemispheres on a surface) that would fall over or
-    slide. Each foot touches at a point: it pushes, with friction, and carries
-    no moment (the statics gives it none: forces.point_contacts). So the object
-    stands only where pushes at its feet balance it: its weight acts within the
-    polygon of its feet (a tripod's triangle; on two feet only exactly above
-    the line between them). Where they cannot, the statics' best pushes F leave
-    a moment M unbalanced: the weight acts M / F beyond the feet (exactly so on
-    two feet: F d with d the distance from their line). A foot that would have
-    to pull lifts off. An object that stands slides where its feet together
-    pull along the floor more than FRICTION times they push into it (one rigid
-    object on one floor: only the sums are determined, not each foot's share)."""
-    feet = np.flatnonzero(point_contacts(model))
-    if not len(feet):
-        return ()
-    frames = model.part_frames(x)
-    newtons = 1000.0 * weight
-    found: dict[int, Topple | Slip] = {}
-    # per object: the floor's force on all its feet, the floor's normal, one foot
-    totals: dict[int, tuple[Array, Array, int]] = {}
-    for j in feet.tolist():
-        joint = model.joints[j]
-        side = "a" if joint.a.primitive.kind == "surface" else "b"
-        floor, foot, sign = (joint.a, joint.b, 1.0) if side == "a" else (joint.b, joint.a, -1.0)
-        normal = model.connector_frame(floor, x, frames)[:3, 2]
-        pressing = float(sign * wrenches.forces[j] @ normal)
-        force_left, moment_left = wrenches.unbalanced[foot.part]
-        beyond = moment_left / max(newtons - force_left, 1e-12)
-        if pressing < -TOPPLE_MARGIN_MM / MOMENT_ARM_MM * newtons:
-            beyond = float("inf")
-        if beyond > TOPPLE_MARGIN_MM and foot.part not in found:
-            found[foot.part] = Topple(
-                j, model.parts[foot.part].name, beyond, _slope(normal), side, on_feet=True
-            )
-        total = totals.get(foot.part, (np.zeros(3), normal, j))[0]
-        totals[foot.part] = (total + sign * wrenches.forces[j], normal, j)
-    for part, (total, normal, j) in totals.items():
-        push = float(total @ normal)
-        ratio = float(np.linalg.norm(total - push * normal)) / max(push, 1e-12)
-        if part not in found and ratio > FRICTION * (1.0 + FRICTION_AGREEMENT):
-            found[part] = Slip(j, model.parts[part].name, ratio, _slope(normal))
-    return tuple(found.values())
-
-
-def _slope(normal: Array) -> float:
-    """A floor's slope (degrees) from its normal."""
-    return float(np.degrees(np.arccos(np.clip(normal[2], -1.0, 1.0))))
+    tipping = (*topples(model, x, wrenches, set(at_bound)), *tips_off_its_feet(model, x, wrenches, weight))
+    lifts = lifts_off(model, x, wrenches, masses)
+    return Settled(x, equilibrium, at_bound, (*falls, *tipping, *lifts), wrenches.forces, contacts, leaning)
 
 
 def _friction_left(
@@ -1675,7 +1481,7 @@ def _verify(
         if ((outward and pushed and is_open) or on_the_tip) and not _stopped_past(
             problem, energy, x, k, end, unbalanced, weight
         ):
-            falls.append(Fall(joint.index, i, end, _falling_part(model, joint, model.variables[i].side)))
+            falls.append(Fall(joint.index, i, end, falling_part(model, joint, model.variables[i].side)))
         elif (
             outward and not dof.ends_hold and abs(force[k]) > LEAN_CARRIES and not _in_a_corner(problem, x, i)
         ):
@@ -1748,43 +1554,6 @@ def _end_of(low: Array, high: Array, i: int, x: Array) -> str | None:
 def _weight(masses: Array) -> float:
     """The assembly's weight in joules per mm of height (masses in grams)."""
     return max(float(weight_newtons(masses).sum()) / 1000.0, 1e-12)
-
-
-def _falling_part(model: Model, joint: Joint, side: str) -> str:
-    """The part that comes off: the side of the connection farther from the environment."""
-    if joint.index in model.tree_child:
-        return model.parts[model.tree_child[joint.index]].name
-    other = joint.b if side == "a" else joint.a
-    return model.parts[other.part].name
-
-
-def _fall_diagnostic(model: Model, fall: Failure) -> Diagnostic:
-    if isinstance(fall, Topple):
-        return _topple_diagnostic(model, fall)
-    if isinstance(fall, Slip):
-        return _slip_diagnostic(model, fall)
-    if isinstance(fall, Lean):
-        return _lean_diagnostic(model, fall)
-    if isinstance(fall, LiftOff):
-        return _lift_off_diagnostic(model, fall)
-    variable = model.variables[fall.dof]
-    joint = model.joints[fall.joint]
-    end = joint.connection.a if variable.side == "a" else joint.connection.b
-    primitive = model.side_of(fall.dof).primitive
-    value = variable.dof.low if fall.end == "min" else variable.dof.high
-    edge = "edge" if primitive.kind == "surface" else "end"
-    where = (
-        f"the tip of {primitive.kind} `{end}`"
-        if primitive.kind == "hook"
-        else f"the {edge} of {primitive.kind} `{end}` ({variable.dof.name} = {value:g})"
-    )
-    return error(
-        "E501",
-        f"the assembly falls apart here: `{fall.part}` slides off {where}",
-        joint.connection.span,
-        "gravity keeps pulling it past the end; support it at a second point, turn or tilt the "
-        "primitive the other way, or use one closed at that end",
-    )
 
 
 def _overlap_diagnostic(
@@ -1878,90 +1647,6 @@ def _crossing_diagnostic(model: Model, part_index: int, other_index: int, depth:
         model.program.targets[0].span,
         f"the real parts push each other aside by about {depth:.0f} mm and what hangs from them moves "
         "with them: build it and look; give them room (another place on what holds them) to be sure",
-    )
-
-
-def _lean_diagnostic(model: Model, lean: Lean) -> Diagnostic:
-    variable = model.variables[lean.dof]
-    joint = model.joints[lean.joint]
-    end = joint.connection.a if variable.side == "a" else joint.connection.b
-    limit = variable.dof.low if lean.end == "min" else variable.dof.high
-    return error(
-        "E509",
-        f"not at rest: only the model's limit of the lean of `{end}` (phi = {limit:g}) holds the "
-        f"hack here ({100 * lean.push:.0f} % of its weight per mm); a real hook or ring would tilt on",
-        joint.connection.span,
-        "this way of connecting does not hang here: turn a connection the other way (`flip`), or hang "
-        "the part from a second point",  # `_with_flip_advice` says which way, where it knows
-    )
-
-
-def _lift_off_diagnostic(model: Model, lift: LiftOff) -> Diagnostic:
-    joint = model.joints[lift.joint]
-    help_text = (
-        "hung this way the weight pulls the parts apart (a hook from the inside of a ring's top): hang it "
-        "where what holds it is beneath it, or turn the connection the other way (`flip`)"
-    )
-    if _welded_ring_on_a_hook(joint):
-        help_text += (
-            "; a ring here keeps its contact on its inner line: where a hook should hold its wire from "
-            "above (a hoop hung level), use a part whose ring says `spin: true` (the library's "
-            "LevelHulaHoop; docs/primitives.md)"
-        )
-    return error(
-        "E512",
-        f"the assembly falls apart here: `{lift.holder}` would have to pull `{lift.held}` with "
-        f"{lift.pull:.2f} N to hold it, but a contact only presses: `{lift.part}` lifts off",
-        joint.connection.span,
-        help_text,
-    )
-
-
-def _welded_ring_on_a_hook(joint: Joint) -> bool:
-    """A ring without `spin` (its contact kept on its inner line) held by a hook."""
-    return any(
-        side.primitive.variant in ("Ring", "RingFlex") and other.primitive.kind == "hook"
-        for side, other in ((joint.a, joint.b), (joint.b, joint.a))
-    )
-
-
-def _topple_diagnostic(model: Model, topple: Topple) -> Diagnostic:
-    joint = model.joints[topple.joint]
-    on = joint.connection.a if topple.floor == "a" else joint.connection.b
-    base = "its feet" if topple.on_feet else "the edge of its base"
-    if np.isfinite(topple.beyond_mm):
-        why = f"its weight acts {topple.beyond_mm:.0f} mm beyond {base}"
-    elif topple.on_feet:
-        why = "its weight acts outside its feet: this foot would have to pull the floor, it lifts off"
-    else:
-        why = "the floor would have to pull it down: it lifts off"
-    return error(
-        "E507",
-        f"the assembly falls apart here: `{topple.part}` falls over on `{on}` ({why}; "
-        f"the floor slopes {topple.slope_deg:.0f} degrees)",
-        joint.connection.span,
-        "level the floor (hang it from a second point), stand the object against the floor's side, "
-        "or stand a lower or wider one there",
-    )
-
-
-# beyond this the feet's pull along the floor over their push into it is no number to read
-SLIP_RATIO_SHOWN = 100.0
-
-
-def _slip_diagnostic(model: Model, slip: Slip) -> Diagnostic:
-    pull = (
-        f"they pull along the floor {slip.ratio:.2f} times as hard as they push into it"
-        if slip.ratio < SLIP_RATIO_SHOWN
-        else "they hardly press on the floor at all"
-    )
-    return error(
-        "E510",
-        f"not at rest: `{slip.part}` slides on its round feet ({pull}; friction holds up to {FRICTION}: "
-        f"the floor slopes {slip.slope_deg:.0f} degrees)",
-        model.joints[slip.joint].connection.span,
-        f"level the floor below atan {FRICTION} = {np.degrees(np.arctan(FRICTION)):.1f} degrees, "
-        "or stand the object against something that stops it",
     )
 
 

@@ -46,6 +46,9 @@ FRICTION = 0.3
 # |s| is smoothed as sqrt(s^2 + 0.5^2) - 0.5 for the gradient methods: a held part may
 # creep up to about half a millimetre (a contact's elastic give) before friction holds
 FRICTION_SMOOTHING_MM = 0.5
+# two estimates of what friction holds agree within this fraction of the assembly's
+# weight (times FRICTION): the settle's rounds of friction, the test of a slip
+FRICTION_AGREEMENT = 0.01
 CLOSED_MM = 1e-6
 FIT_EVALUATIONS = 200  # for the most promising start of step 1 without loops
 FIT_PROBE_EVALUATIONS = 20  # for each start first

@@ -517,11 +517,11 @@ def test_feet_that_hardly_press_say_so_rather_than_a_ratio(tmp_path: Path) -> No
     along it over their push is a number like 74736128160.99, which E510 used
     to print; from SLIP_RATIO_SHOWN (100) on it says they hardly press on the
     floor. Below it the ratio is still given (the test above)."""
-    from fabhal.solve import SLIP_RATIO_SHOWN, Slip, _slip_diagnostic
+    from fabhal.solve.falls import SLIP_RATIO_SHOWN, Slip, fall_diagnostic
 
     result = solve_text(tmp_path, STOOL.format(slope=60))
     model = result.solution.model
-    far = _slip_diagnostic(model, Slip(0, "stool", 7.5e10, 90.0))
+    far = fall_diagnostic(model, Slip(0, "stool", 7.5e10, 90.0))
     assert "they hardly press on the floor at all" in far.message and "times" not in far.message
-    near = _slip_diagnostic(model, Slip(0, "stool", SLIP_RATIO_SHOWN * 0.99, 89.0))
+    near = fall_diagnostic(model, Slip(0, "stool", SLIP_RATIO_SHOWN * 0.99, 89.0))
     assert "99.00 times as hard" in near.message
