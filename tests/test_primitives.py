@@ -119,8 +119,10 @@ def test_dof_tags_follow_the_physics() -> None:
         "phi": Tag.BOUNDED_AND_CLAMPED,
         "spin": Tag.UNBOUNDED,
     }
-    # a rod closed at its ends (closet rods between walls) holds what hangs on it
+    # a rod closed at its ends (closet rods between walls, a tension rod pressed on them)
+    # holds what hangs on it
     assert tags("ClosetRods", "rod1")["t"] is Tag.BOUNDED_AND_CLAMPED
+    assert tags("LongTensionRod", "rod")["t"] is Tag.BOUNDED_AND_CLAMPED
     assert tags("DoubleHook", "hook1") == {"theta": Tag.BOUNDED_AND_OPEN, "phi": Tag.BOUNDED_AND_CLAMPED}
     assert tags("Mug", "hook") == {"theta": Tag.BOUNDED_AND_CLAMPED}  # closed handle
     assert tags("RingM", "ring") == {"theta": Tag.UNBOUNDED}

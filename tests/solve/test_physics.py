@@ -207,6 +207,30 @@ def test_a_hook_slides_down_a_steep_slope_to_the_end(tmp_path: Path) -> None:
     assert at_end and settled in (0.0, 1.0) and abs(settled - placed) > 0.3
 
 
+def test_a_hook_slides_down_a_sloping_tension_rod_to_the_wall_and_stays(tmp_path: Path) -> None:
+    """A tension rod pressed between two walls, fitted sloping 20 degrees: tan
+    20 = 0.36 > 0.3, so an S-hook with a mug slides all the way down, and the
+    wall at the lower end stops it (the rod's end carries the pull W sin 20
+    along it): solved, resting at that end. The reference's open rod let it
+    slide off the end, through the wall (E501)."""
+    program = tmp_path / "tension.fhl"
+    program.write_text(
+        """\
+environment rod = LongTensionRod() at (0, 0, 0) rot (0, 20, 0)
+s = DoubleHookMedium()
+mug = Mug()
+connect s.hook1 -- rod.rod
+connect mug.hook -- s.hook2
+target mug at (1400, 127, 1500)
+"""
+    )
+    result = api.solve(program, two_step=True)
+    assert result.status == "solved", result.diagnostics
+    solution = result.solution
+    t = next(i for i, v in enumerate(solution.model.variables) if v.name == "rod.rod.t")
+    assert t in solution.at_bound and solution.x[t] in (0.0, 1.0)
+
+
 def test_of_equally_low_configurations_the_one_nearest_the_request_is_kept(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
