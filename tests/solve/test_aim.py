@@ -62,7 +62,15 @@ def test_the_clip_light_is_aimed_as_near_as_its_own_balance_allows() -> None:
     hanger's centre of mass (about 100 mm below its hook) by at most
     100 sin 5 = 9 mm, the light by 9 x 83 / 200 = 4 mm of the 39. The aimed
     answer balances the two errors: under 28 mm and 5 degrees. N506 says where
-    along the bar to clip it and how it is turned about the bar."""
+    along the bar to clip it and how it is turned about the bar.
+
+    Nor within 10 mm at any tilt under 5 degrees: the chain hangs straight
+    below the ceiling hook, so the hanger's hook P is there. With the clip
+    within 10 mm of P's vertical the light's centre of mass is at least 29 mm
+    to one side, so the hanger's, 146.6 mm below P (its bar 200 mm below),
+    would have to be 29 x 200 / 83 = 70 mm to the other: swung out of its
+    plane it moves 146.6 / 200 as far as the clip (at most 7.3 mm), tilted in
+    its plane within 5 degrees at most 146.6 sin 5 = 12.8 mm more."""
     result = api.solve(REPO / "programs" / "clip_light_m.fhl")
     status, aimed = result.status, result.solution
     assert status == "solved" and isinstance(aimed, Solution)
