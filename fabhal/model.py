@@ -780,6 +780,7 @@ def _assemble(program: FlatProgram, parts: tuple[PartInstance, ...]) -> Model:
         held = connection.fixed or _holds_by_itself(a.primitive.kind, b.primitive.kind)
         joints.append(Joint(j, a, b, offset, connection, held))
     environments = frozenset(i for i, part in enumerate(parts) if part.environment)
+    target = index[program.targets[0].part] if program.targets else None
     for joint in joints:
         _keep_on_floor(joint, variables, environments)
         _keep_threaded(joint, variables)
@@ -795,7 +796,7 @@ def _assemble(program: FlatProgram, parts: tuple[PartInstance, ...]) -> Model:
             i
             for joint in joints
             for i in (
-                *_resting_surface(joint, environments),
+                *_resting_surface(joint, environments, target),
                 *_fixed_rod_line(joint, parts),
                 *_ring_spin_off_hooks(joint),
                 *_threaded_centre(joint),
@@ -898,18 +899,23 @@ def _floor_and_object(joint: Joint, environments: frozenset[int]) -> tuple[Side,
     return (joint.b, joint.a) if area[0] <= area[1] else (joint.a, joint.b)
 
 
-def _resting_surface(joint: Joint, environments: frozenset[int]) -> tuple[int, ...]:
+def _resting_surface(joint: Joint, environments: frozenset[int], target: int | None) -> tuple[int, ...]:
     """Where a surface rests on another, the DoFs that place it there: step 1
     stands an object in the middle of what it rests on (the reference does the
     same), so the smaller's t1, t2 and s and the larger's t1, t2 stay at their
     defaults; only the larger's spin s turns it. The solver does not slide a
     bottle across its basket's floor to chase the target: the floor is not a
-    designed joint (gravity may slide it there in step 2: `Standing`)."""
+    designed joint (gravity may slide it there in step 2: `Standing`). But the
+    target standing on the world's floor (a shelf, a counter) is stood where
+    it is asked for: there, where it stands moves nothing else (a bottle asked
+    60 mm left of a shelf's middle stood in the middle, W505 saying to add
+    parts)."""
     sides = _floor_and_object(joint, environments)
     if sides is None:
         return ()
     floor, standing = sides
-    return standing.dof_indices + floor.dof_indices[:2]
+    asked_for = floor.part in environments and standing.part == target
+    return standing.dof_indices + (() if asked_for else floor.dof_indices[:2])
 
 
 def _keep_on_floor(joint: Joint, variables: list[DofVariable], environments: frozenset[int]) -> None:

@@ -269,3 +269,16 @@ def penalty(distance: Array, stiffness: float | Array) -> tuple[float, Array]:
     derivative by each distance."""
     depth = np.maximum(-distance, 0.0)
     return 0.5 * float(stiffness * depth @ depth), -stiffness * depth
+
+
+def rectangles_overlap(centres: Array, axes: Array, halves: Array) -> float:
+    """How deep two rectangles lying in one plane overlap (mm): of the four
+    directions of their edges, the least by which their shadows on it overlap
+    (the separating axis theorem: where the shadows on one are apart, so are
+    the rectangles); 0 or less where they are apart. `centres` (2, 3), `axes`
+    (2, 2, 3) each rectangle's two unit edge directions, `halves` (2, 2) its
+    half extents along them."""
+    edges = axes.reshape(4, 3)
+    reach = halves.reshape(4, 1) * np.abs(edges @ edges.T)  # (edge, direction): its shadow's half
+    shadows = reach.sum(axis=0) - np.abs(edges @ (centres[1] - centres[0]))
+    return float(shadows.min())

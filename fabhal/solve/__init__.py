@@ -8,6 +8,7 @@ past the end of its range falls off. See fabhal/solve/steps.py.
 
 from __future__ import annotations
 
+import itertools
 import time
 from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass, replace
@@ -17,6 +18,7 @@ import numpy as np
 from fabhal.check.cycles import close_loops
 from fabhal.diagnostics import Diagnostic, Severity, error, listed, warning
 from fabhal.elaborate import Connection
+from fabhal.kinematics.contact import rectangles_overlap
 from fabhal.kinematics.frames import Array
 from fabhal.kinematics.statics import Wrenches
 from fabhal.meshes import mass_properties
@@ -586,7 +588,10 @@ def _solve_once(model: Model, options: SolveOptions, loop_start: Array | None) -
     through = crossings(model, x, looked)
     overlaps = _overlaps(model, x, looked, masses)
     standing_through = [c for c in through if _standing_between(model, c[0], c[1]) is not None]
-    if standing_through:  # the connection holds them so: what the two are is the message, not the walls
+    on_one_spot = _stood_on_one_spot(model, x)
+    if on_one_spot:  # identical objects stood on one spot coincide: no point of one is inside the other
+        diagnostics.append(_one_spot_diagnostic(model, *on_one_spot[0]))
+    elif standing_through:  # the connection holds them so: what the two are is the message, not the walls
         stood, carrier, _ = standing_through[0]
         deepest = max(
             (d for p, o, d in check(model, x, looked).overlaps(looked, 0.0) if {p, o} == {stood, carrier}),
@@ -606,7 +611,7 @@ def _solve_once(model: Model, options: SolveOptions, loop_start: Array | None) -
     elif settled.falls:
         status = "not_at_rest"  # held by a lean's stop, or feet that slide: not a state of rest
     else:
-        held = _at_rest(settled) and gap <= LOOP_KEPT_MM and not overlaps and not through
+        held = _at_rest(settled) and gap <= LOOP_KEPT_MM and not overlaps and not through and not on_one_spot
         status = "solved" if held else "not_at_rest"
     return Solution(
         status,
@@ -1617,6 +1622,57 @@ def _below_the_floor(model: Model, x: Array, pairs: Pairs, floor: Side, both: fr
         heights.append((world - face[:3, 3]) @ face[:3, 2])
     found = np.concatenate(heights) if heights else np.zeros(0)
     return bool(len(found)) and float(found.max()) <= 1.0
+
+
+def _stood_on_one_spot(model: Model, x: Array) -> list[tuple[int, int, float]]:
+    """(connection, other connection, depth mm) of two objects standing on one
+    floor whose bases overlap there by more than OVERLAP_KEPT_MM. Step 1 stands
+    every object in its floor's middle, so two of them on one floor stand on
+    one spot; two alike then coincide, and the contact check, which looks for
+    points of one inside the other, finds every point on the other's surface
+    (0.3 mm in): two soap bottles on one shelf came back `solved`. Their bases
+    are rectangles in the floor's plane (the object's surface's length along
+    its connector frame's x, its width along y)."""
+    frames = model.part_frames(x)
+    by_floor: dict[tuple[int, str], list[tuple[int, Side, tuple[float, float]]]] = {}
+    for standing in model.standing:
+        joint = model.joints[standing.joint]
+        floor, thing = (joint.a, joint.b) if standing.floor == "a" else (joint.b, joint.a)
+        on = (floor.part, floor.primitive.name)
+        by_floor.setdefault(on, []).append((joint.index, thing, standing.base))
+    found = []
+    for objects in by_floor.values():
+        for (first, a, a_base), (second, b, b_base) in itertools.combinations(objects, 2):
+            placed = [model.connector_frame(side, x, frames) for side in (a, b)]
+            depth = rectangles_overlap(
+                np.array([frame[:3, 3] for frame in placed]),
+                np.array([[frame[:3, 0], frame[:3, 1]] for frame in placed]),
+                np.array([(a_base[1] / 2.0, a_base[0] / 2.0), (b_base[1] / 2.0, b_base[0] / 2.0)]),
+            )
+            if depth > OVERLAP_KEPT_MM:
+                found.append((first, second, depth))
+    return found
+
+
+def _one_spot_diagnostic(model: Model, first: int, second: int, depth: float) -> Diagnostic:
+    """At the connection of the one of the two that is not the target (the
+    solver stands the target where it is asked for, the rest in the middle)."""
+    target = model.program.targets[0].part
+    joints = [model.joints[first], model.joints[second]]
+    floors = {s.joint: s.floor for s in model.standing}
+    sides = [(j.a, j.b) if floors[j.index] == "a" else (j.b, j.a) for j in joints]
+    names = [model.parts[thing.part].name for _, thing in sides]
+    k = 0 if names[1] == target else 1
+    joint, (floor, _) = joints[k], sides[k]
+    on = joint.endpoint(floor)
+    return error(
+        "E508",
+        f"`{names[k]}` stands on `{on}` where `{names[1 - k]}` stands: their bases overlap by {depth:.1f} mm",
+        joint.connection.span,
+        f"the solver stands an object in the middle of its floor (the target where it is asked for): say "
+        f"where `{names[k]}` stands, on this line, e.g. `set ({on}.t2: 0.8)` (t1 and t2 run from 0 to 1 "
+        "across the floor; `--dofs` lists them), or stand it on another floor",
+    )
 
 
 def _standing_between(model: Model, part_index: int, other_index: int) -> Joint | None:

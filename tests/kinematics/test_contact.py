@@ -8,7 +8,13 @@ import numpy as np
 import pytest
 import trimesh
 
-from fabhal.kinematics.contact import DistanceGrid, grid_spacing, penalty, signed_distance_grid
+from fabhal.kinematics.contact import (
+    DistanceGrid,
+    grid_spacing,
+    penalty,
+    rectangles_overlap,
+    signed_distance_grid,
+)
 
 
 def sampled(mesh: trimesh.Trimesh, count: int = 60_000) -> tuple[np.ndarray, np.ndarray]:
@@ -201,3 +207,25 @@ def test_the_cull_clears_only_points_that_are_outside(smooth: bool) -> None:
     assert np.all(kept[distance < 0.0])
     far = distance >= 4 * grid.spacing  # beyond the band: the grid's own cut
     assert kept[far].mean() < 0.05
+
+
+def test_two_rectangles_overlap_by_the_least_of_their_shadows() -> None:
+    """Two 77 mm squares in one plane (a bottle's base): on one spot they
+    overlap by 77 mm; 60 mm apart by 77 - 60 = 17; 80 mm apart they are 3 mm
+    apart (-3). One turned 45 degrees reaches 38.5 sqrt 2 = 54.45 mm from its
+    centre along the line between them, so placed 38.5 + 54.45 + 1 mm away
+    they are 1 mm apart. Exact to rounding."""
+    along, across = np.eye(3)[0], np.eye(3)[1]
+    square = np.array([along, across])
+    halves = np.full((2, 2), 38.5)
+
+    def overlap(distance: float, turned: np.ndarray) -> float:
+        centres = np.array([[0.0, 0.0, 0.0], [distance, 0.0, 0.0]])
+        return rectangles_overlap(centres, np.array([square, turned]), halves)
+
+    assert overlap(0.0, square) == pytest.approx(77.0)
+    assert overlap(60.0, square) == pytest.approx(17.0)
+    assert overlap(80.0, square) == pytest.approx(-3.0)
+    c = np.sqrt(0.5)
+    diamond = np.array([[c, c, 0.0], [-c, c, 0.0]])
+    assert overlap(38.5 + 38.5 * np.sqrt(2.0) + 1.0, diamond) == pytest.approx(-1.0)

@@ -25,11 +25,13 @@ from tests.solve.test_physics import solve_text, tilt_of
 RAMP = 400.0  # mm, the floor's width and length
 BOTTLE_BASE = 77.0  # mm, SoapBottle's surface
 
+# asked for at the floor's middle (its frame is its base's middle, 1 mm above it): a
+# target on the world's floor is stood where it is asked for
 BOTTLE_ON_RAMP = """\
 environment ramp = Surface(width: 400, length: 400{extra}) at (0, 0, 0) rot ({rot})
 soap = SoapBottle()
 connect soap.surface -- ramp
-target soap.rod at (0, 0, 80)
+target soap at (0, 0, 0)
 """
 
 POST_ON_RAMP = """\
@@ -273,6 +275,59 @@ target soap at (0, 0, {floor + 1:g})
     solution = result.solution
     assert solution.frames[solution.model.part_index("soap")][2, 3] == pytest.approx(floor + 1, abs=0.1)
     assert solution.contacts == ()
+
+
+BOTTLES_ON_A_SHELF = """\
+environment board = Board() at (0, 0, 900) rot (90, 0, 0)
+a = SoapBottle()
+b = SoapBottle()
+connect a.surface -- board.surface2
+connect b.surface -- board.surface2{setting}
+target a at (-60, 0, 901)
+"""
+
+
+def test_a_bottle_on_a_shelf_stands_where_it_is_asked_for(tmp_path: Path) -> None:
+    """The target standing on the world's floor is stood where it is asked
+    for: the shelf's face is 180 x 280 mm and the bottle's base 77 mm, so its
+    centre may be anywhere within 140 - 38.5 = 101.5 mm of the middle along
+    the length; asked 60 mm left of the middle, it stands there (to 0.1 mm:
+    the springs' give) and friction holds it on the level shelf. It stood in
+    the middle, 60 mm off, with W505 saying to add parts."""
+    alone = [line for line in BOTTLES_ON_A_SHELF.splitlines() if not line.startswith(("b =", "connect b."))]
+    result = solve_text(tmp_path, "\n".join(alone) + "\n")
+    assert result.status == "solved", result.diagnostics
+    assert result.solution.target_errors()[0] < 0.1
+    assert not any(d.code == "W505" for d in result.diagnostics)
+
+
+def test_two_bottles_stood_on_one_spot_are_not_solved(tmp_path: Path) -> None:
+    """Two bottles on one shelf, the second placed by nothing: the solver
+    stands it in the middle, where the first (asked 60 mm left of it) cannot
+    be without the two bases (77 mm each) over each other. They came back
+    `solved` in one place: two identical bottles at one pose, every point of
+    one on the other's surface, none inside it. Now E508 at the second's
+    connection, with how far their bases overlap and how to place it."""
+    result = solve_text(tmp_path, BOTTLES_ON_A_SHELF.format(setting=""))
+    assert result.status != "solved"
+    (overlap,) = [d for d in result.diagnostics if d.code == "E508"]
+    assert overlap.span is not None and overlap.span.line == 5
+    assert "`b` stands on `board.surface2` where `a` stands: their bases overlap by" in overlap.message
+    assert "set (board.surface2.t2: 0.8)" in overlap.help
+
+
+def test_two_bottles_placed_apart_on_one_shelf_stand_there(tmp_path: Path) -> None:
+    """The second bottle set at t2 = 0.8 of the shelf's 280 mm length: its
+    centre (0.8 - 0.5) x 280 = 84 mm right of the middle, the first at its
+    request 60 mm left: 144 mm apart, more than the 77 mm bases need. Solved,
+    each where it was put (to 0.1 mm)."""
+    setting = " set (board.surface2.t2: 0.8)"
+    result = solve_text(tmp_path, BOTTLES_ON_A_SHELF.format(setting=setting))
+    assert result.status == "solved", result.diagnostics
+    solution = result.solution
+    a, b = (solution.frames[solution.model.part_index(name)][:3, 3] for name in ("a", "b"))
+    assert a == pytest.approx([-60.0, 0.0, 901.0], abs=0.1)
+    assert b == pytest.approx([84.0, 0.0, 901.0], abs=0.1)
 
 
 PEDESTAL = 60.0  # mm: narrower than the bottle's 77 mm base
