@@ -796,7 +796,7 @@ def _assemble(program: FlatProgram, parts: tuple[PartInstance, ...]) -> Model:
             i
             for joint in joints
             for i in (
-                *_resting_surface(joint, environments, target),
+                *_resting_surface(joint, environments),
                 *_fixed_rod_line(joint, parts),
                 *_ring_spin_off_hooks(joint),
                 *_threaded_centre(joint),
@@ -805,7 +805,7 @@ def _assemble(program: FlatProgram, parts: tuple[PartInstance, ...]) -> Model:
             )
         )
         | frozenset(turn.second for turn in together if turn.folded)
-    )
+    ) - _stood_where_asked(joints, environments, target, written)
     standing = tuple(
         s
         for joint in joints
@@ -899,23 +899,46 @@ def _floor_and_object(joint: Joint, environments: frozenset[int]) -> tuple[Side,
     return (joint.b, joint.a) if area[0] <= area[1] else (joint.a, joint.b)
 
 
-def _resting_surface(joint: Joint, environments: frozenset[int], target: int | None) -> tuple[int, ...]:
+def _resting_surface(joint: Joint, environments: frozenset[int]) -> tuple[int, ...]:
     """Where a surface rests on another, the DoFs that place it there: step 1
     stands an object in the middle of what it rests on (the reference does the
     same), so the smaller's t1, t2 and s and the larger's t1, t2 stay at their
     defaults; only the larger's spin s turns it. The solver does not slide a
     bottle across its basket's floor to chase the target: the floor is not a
-    designed joint (gravity may slide it there in step 2: `Standing`). But the
-    target standing on the world's floor (a shelf, a counter) is stood where
-    it is asked for: there, where it stands moves nothing else (a bottle asked
-    60 mm left of a shelf's middle stood in the middle, W505 saying to add
-    parts)."""
+    designed joint (gravity may slide it there in step 2: `Standing`), but
+    for the target on the world's floor (`_stood_where_asked`)."""
     sides = _floor_and_object(joint, environments)
     if sides is None:
         return ()
     floor, standing = sides
-    asked_for = floor.part in environments and standing.part == target
-    return standing.dof_indices + (() if asked_for else floor.dof_indices[:2])
+    return standing.dof_indices + floor.dof_indices[:2]
+
+
+def _stood_where_asked(
+    joints: list[Joint], environments: frozenset[int], target: int | None, written: frozenset[int]
+) -> frozenset[int]:
+    """Where on the world's floor (a shelf, a counter) the target stands, for
+    step 1 to choose: it is stood where it is asked for (a bottle asked 60 mm
+    left of a shelf's middle stood in the middle, W505 saying to add parts),
+    as nothing else moves with it. Not where another object on that floor
+    stands wherever the solver puts it (in the middle: moving the target away
+    from it, step 1 took it past its request); set where that one stands and
+    the target is placed (E508 says so when the two stand on one spot)."""
+    on_floors: dict[tuple[int, str], list[tuple[int, tuple[int, ...]]]] = {}
+    for joint in joints:
+        sides = _floor_and_object(joint, environments)
+        if sides is not None and sides[0].part in environments and not joint.connection.fixed:
+            floor, standing = sides
+            on_floors.setdefault((floor.part, floor.primitive.name), []).append(
+                (standing.part, floor.dof_indices[:2])
+            )
+    free: set[int] = set()
+    for objects in on_floors.values():
+        # placed: the program says where (one of its two slides, at least)
+        others_placed = all(set(slide) & written for part, slide in objects if part != target)
+        if others_placed:
+            free.update(i for part, slide in objects if part == target for i in slide)
+    return frozenset(free - written)
 
 
 def _keep_on_floor(joint: Joint, variables: list[DofVariable], environments: frozenset[int]) -> None:

@@ -31,6 +31,7 @@ from fabhal.solve.contacts import (
     Contact,
     Pairs,
     check,
+    coinciding,
     contact_loads,
     contact_pairs,
     contacts_at,
@@ -589,8 +590,11 @@ def _solve_once(model: Model, options: SolveOptions, loop_start: Array | None) -
     overlaps = _overlaps(model, x, looked, masses)
     standing_through = [c for c in through if _standing_between(model, c[0], c[1]) is not None]
     on_one_spot = _stood_on_one_spot(model, x)
+    in_one_place = coinciding(model, x, looked)
     if on_one_spot:  # identical objects stood on one spot coincide: no point of one is inside the other
         diagnostics.append(_one_spot_diagnostic(model, *on_one_spot[0]))
+    elif in_one_place:
+        diagnostics.append(_one_place_diagnostic(model, *in_one_place[0]))
     elif standing_through:  # the connection holds them so: what the two are is the message, not the walls
         stood, carrier, _ = standing_through[0]
         deepest = max(
@@ -611,7 +615,8 @@ def _solve_once(model: Model, options: SolveOptions, loop_start: Array | None) -
     elif settled.falls:
         status = "not_at_rest"  # held by a lean's stop, or feet that slide: not a state of rest
     else:
-        held = _at_rest(settled) and gap <= LOOP_KEPT_MM and not overlaps and not through and not on_one_spot
+        apart = not (overlaps or through or on_one_spot or in_one_place)
+        held = _at_rest(settled) and gap <= LOOP_KEPT_MM and apart
         status = "solved" if held else "not_at_rest"
     return Solution(
         status,
@@ -1672,6 +1677,19 @@ def _one_spot_diagnostic(model: Model, first: int, second: int, depth: float) ->
         f"the solver stands an object in the middle of its floor (the target where it is asked for): say "
         f"where `{names[k]}` stands, on this line, e.g. `set ({on}.t2: 0.8)` (t1 and t2 run from 0 to 1 "
         "across the floor; `--dofs` lists them), or stand it on another floor",
+    )
+
+
+def _one_place_diagnostic(model: Model, part_index: int, other_index: int) -> Diagnostic:
+    part, other = (model.parts[i].name for i in (part_index, other_index))
+    return error(
+        "E508",
+        f"`{part}` and `{other}` are in one place where the solver stopped: the surface of the one lies on "
+        "the other's all round",
+        model.program.targets[0].span,
+        "the connections hang both at one spot (two rings on one hook both hang at its lowest point): "
+        "hang one from another hook or through a link, or say where each is held (`--dofs` lists the "
+        "settings; `set (...)` on a connection's line)",
     )
 
 

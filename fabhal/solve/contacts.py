@@ -80,6 +80,12 @@ REGION_MM = 20.0
 # as two mugs whose rims cut through each other (165 mm) do, though only their 2.2 mm
 # walls' depth shows
 CROSSING_SPAN_MM = 2 * REGION_MM
+# two parts lie in one place where nearly all of one's check points (this share) lie
+# within COINCIDE_MM of the other's surface: two alike at one pose (two rings hung at a
+# hook's lowest point), whose points are none of them inside the other, so no depth
+# shows; parts that merely touch have a patch of their points there, not all
+COINCIDE_MM = 0.5
+COINCIDE_SHARE = 0.9
 
 
 @dataclass(frozen=True)
@@ -610,6 +616,7 @@ class Checked:
 
     depth: Array  # (K,)
     deep: dict[int, Array]
+    on_surface: Array  # (K,) the share of the pair's points within COINCIDE_MM of the obstacle's surface
 
     def overlaps(self, pairs: Pairs, deeper: float) -> list[tuple[int, int, float]]:
         """(part, obstacle, depth) of every pair deeper than `deeper` mm, deepest first."""
@@ -629,16 +636,17 @@ def check(model: Model, x: Array, pairs: Pairs) -> Checked:
 
 
 def _look_finely(fwd: Forward, pairs: Pairs) -> Checked:
-    depth = np.zeros(len(pairs))
+    depth, on_surface = np.zeros(len(pairs)), np.zeros(len(pairs))
     deep: dict[int, Array] = {}
     groups = _kinds(pairs, fwd, check=True)
     for group, (_, distance, _) in zip(groups, _distances(fwd, pairs, groups, check=True), strict=True):
         for row, k in enumerate(group):
             inside = -distance[row]
             depth[k] = max(0.0, float(inside.max(initial=0.0)))
+            on_surface[k] = float(np.mean(np.abs(inside) <= COINCIDE_MM)) if len(inside) else 0.0
             if depth[k] > REFINE_DEPTH_MM:
                 deep[k] = pairs.pairs[k].check[inside > REFINE_DEPTH_MM]
-    return Checked(depth, deep)
+    return Checked(depth, deep, on_surface)
 
 
 def crossings(model: Model, x: Array, pairs: Pairs) -> list[tuple[int, int, float]]:
@@ -656,6 +664,17 @@ def crossings(model: Model, x: Array, pairs: Pairs) -> list[tuple[int, int, floa
         if span > CROSSING_SPAN_MM:
             found.append((int(pairs.parts[k]), int(pairs.obstacles[k]), span))
     return sorted(found, key=lambda crossing: -crossing[2])
+
+
+def coinciding(model: Model, x: Array, pairs: Pairs) -> list[tuple[int, int]]:
+    """(part, other movable part) lying in one place at x: nearly all the part's
+    check points (COINCIDE_SHARE) lie on the other's surface."""
+    on_surface = check(model, x, pairs).on_surface
+    return [
+        (int(pairs.parts[k]), int(pairs.obstacles[k]))
+        for k in np.flatnonzero(on_surface >= COINCIDE_SHARE).tolist()
+        if not model.parts[int(pairs.obstacles[k])].environment
+    ]
 
 
 def passing_through(model: Model, x: Array, pairs: Pairs) -> frozenset[frozenset[int]]:
