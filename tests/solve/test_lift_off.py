@@ -51,3 +51,29 @@ def test_the_same_hook_at_the_bottom_of_the_ring_hangs(tmp_path: Path) -> None:
     result = solve_text(tmp_path, INSIDE_THE_TOP.replace("theta: 300", "theta: 120"))
     assert result.status == "solved", result.diagnostics
     assert not [d for d in result.diagnostics if d.code == "E512"]
+
+
+def test_no_lift_off_is_judged_under_a_part_deep_in_another(tmp_path: Path) -> None:
+    """A paper towel roll hung by its core from a medium S-hook under a tension
+    rod: its wall (29 mm from core to outside) reaches above the rod's
+    underside, so the solver leaves it about 10 mm inside the rod. The
+    contact springs carry the hack's whole weight at 0.2 mm of give: 10 mm in,
+    they push some 50 times its weight, a load no real contact makes, and the
+    statics under it had the rod "pull" the S-hook (E512, falls_apart) ahead
+    of the E508 that says why. Where a part is more than 1 mm inside another
+    or the world, lift-offs are not judged: E508 alone, not_at_rest."""
+    result = solve_text(
+        tmp_path,
+        """\
+environment rod = LongTensionRod() at (0, 0, 0)
+s = DoubleHookMedium()
+roll = PaperTowelRoll()
+connect s.hook1 -- rod.rod
+connect roll.tube -- s.hook2
+target roll at (800, 127, 2000)
+""",
+    )
+    assert result.status == "not_at_rest"
+    errors = [d for d in result.diagnostics if d.is_error]
+    assert [d.code for d in errors] == ["E508"]
+    assert errors[0].message.startswith("`roll` is ") and "inside `rod`" in errors[0].message
