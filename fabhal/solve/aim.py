@@ -188,7 +188,7 @@ def setting_text(model: Model, i: int, value: float, length: float) -> str:
     dof = variable.dof
     where = variable.name.rsplit(".", 1)[0]  # part.primitive
     if not dof.periodic and dof.high <= 1.0:
-        return f"{value * length:.0f} mm along {where} (of {length:.0f})"
+        return f"{value * length:.0f} mm along {where} (of {length:.0f}){_counted_from(model, i)}"
     kind = model.side_of(i).primitive.kind
     if dof.lean:
         return f"tilted {round(value - dof.default):+d} degrees on {where}"  # never "-0"
@@ -197,3 +197,27 @@ def setting_text(model: Model, i: int, value: float, length: float) -> str:
     if dof.periodic:  # a rod's spin, a tube's theta, a surface's s
         return f"turned {value:.0f} degrees about {where}"
     return f"{dof.name} {value:.0f} degrees on {where}"
+
+
+# an end of a rod is named by another primitive of its part lying this much nearer it
+# than the other end (a hanger's corner bend by its bar's end, not its hook above the middle)
+NAMED_END_SHARE = 0.5
+
+
+def _counted_from(model: Model, i: int) -> str:
+    """Which end a slide along a rod or tube counts from, as a builder finds it:
+    " from its end by `part.primitive`" where another primitive of the same
+    part lies by that end (a hanger's bar: the corner bend there), else ""."""
+    side = model.side_of(i)
+    primitive = side.primitive
+    others = [p for p in model.parts[side.part].spec.primitives if p.name != primitive.name]
+    if primitive.kind not in ("rod", "tube") or not others:
+        return ""
+    half = primitive.params["length"] / 2.0
+    base = primitive.base_frame()
+    start, end = ((base @ np.array([0.0, 0.0, z, 1.0]))[:3] for z in (-half, half))
+    by = min(others, key=lambda p: float(np.linalg.norm(p.base_frame()[:3, 3] - start)))
+    place = by.base_frame()[:3, 3]
+    if np.linalg.norm(place - start) > NAMED_END_SHARE * np.linalg.norm(place - end):
+        return ""
+    return f" from its end by `{model.parts[side.part].name}.{by.name}`"

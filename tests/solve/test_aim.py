@@ -48,6 +48,19 @@ def test_the_demo_places_the_s_hook_where_the_ring_hangs_at_the_request() -> Non
     assert paper.target_errors()[0] > 100.0
 
 
+def test_the_note_says_which_end_a_place_on_a_bar_is_measured_from() -> None:
+    """A builder measures along the hanger's bar from one end: N506 names it by
+    what lies there. The wire hanger's bar runs along y in its frame, t = 0 at
+    y = -195; its corner bend hook3 is at y = -194.1 (0.9 mm from that end, 389
+    from the other), so the demo's S-hook is "192 mm along hanger.rod (of 390)
+    from its end by `hanger.hook3`". The tension rod of the demo, the only
+    primitive of its part, is measured as before, with no end named."""
+    result = api.solve(REPO / "programs" / "demo.fhl")
+    (note,) = [d for d in result.diagnostics if d.code == "N506"]
+    assert "192 mm along hanger.rod (of 390) from its end by `hanger.hook3`" in note.message
+    assert "mm along rod.rod (of 500);" in note.message or note.message.endswith("mm along rod.rod (of 500)")
+
+
 def test_the_clip_light_is_aimed_as_near_as_its_own_balance_allows() -> None:
     """Clip light M: the light (200 g) grips the hanger's bar with a `fixed`
     clip; the clip's place on the bar and its grip angles are chosen. Aimed, it
