@@ -82,7 +82,8 @@ class Joint:
 class Standing:
     """An object standing on a surface (a connection of two surfaces: an
     environment's, else the larger, is the floor). Step 1 stands it in the
-    floor's middle (`pinned`); when the hack settles it may slide on the floor,
+    floor's middle (`pinned`; the target on the world's floor where it is asked
+    for, `_stood_where_asked`); when the hack settles it may slide on the floor,
     which friction resists, and it topples when its weight acts beyond where
     they touch (fabhal/solve/__init__.py)."""
 
