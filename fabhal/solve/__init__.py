@@ -659,7 +659,7 @@ def _not_at_rest_help(options: SolveOptions, out_of_time: bool) -> str:
 
 def _crowded(step1: Problem, v: Array, closed: Array) -> Diagnostic | None:
     """E423 where no start of step 1 keeps the loops closed and the parts that
-    share a rod, tube or edge apart (its best `v` breaks one or the other),
+    share a rod, tube, edge or hook apart (its best `v` breaks one or the other),
     and the check's closure (`closed`: it closes the loops without that rule)
     has two such parts closer than their widths allow: the design as connected
     cannot be built."""
@@ -679,7 +679,7 @@ def _crowded(step1: Problem, v: Array, closed: Array) -> Diagnostic | None:
         f"the loops close only with `{first.connection.a}` and `{second.connection.a}` "
         f"{rule.gap + apart[k]:.0f} mm apart along `{shared}`, closer than they fit ({rule.gap:.0f} mm)",
         second.connection.span,
-        "two parts on one rod, tube or edge cannot share a place: connect one of them elsewhere, "
+        "two parts on one rod, tube, edge or hook cannot share a place: connect one of them elsewhere, "
         "or give the loop another part so it closes with them apart",
     )
 
@@ -1693,9 +1693,9 @@ def _one_place_diagnostic(model: Model, part_index: int, other_index: int) -> Di
         f"`{part}` and `{other}` are in one place where the solver stopped: the surface of the one lies on "
         "the other's all round",
         model.program.targets[0].span,
-        "the connections hang both at one spot (two rings on one hook both hang at its lowest point): "
-        "hang one from another hook or through a link, or say where each is held (`--dofs` lists the "
-        "settings; `set (...)` on a connection's line)",
+        "the connections hold both at one spot (two rings written at one place on a hook): say where "
+        "each is held apart (`--dofs` lists the settings; `set (...)` on a connection's line), or hang "
+        "one from another hook or through a link",
     )
 
 

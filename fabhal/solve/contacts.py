@@ -81,8 +81,8 @@ REGION_MM = 20.0
 # walls' depth shows
 CROSSING_SPAN_MM = 2 * REGION_MM
 # two parts lie in one place where nearly all of one's check points (this share) lie
-# within COINCIDE_MM of the other's surface: two alike at one pose (two rings hung at a
-# hook's lowest point), whose points are none of them inside the other, so no depth
+# within COINCIDE_MM of the other's surface: two alike at one pose (two rings written at
+# one place on a hook), whose points are none of them inside the other, so no depth
 # shows; parts that merely touch have a patch of their points there, not all
 COINCIDE_MM = 0.5
 COINCIDE_SHARE = 0.9

@@ -1,6 +1,6 @@
 """The solver's linear inequalities: spacing, and flex angles turning together.
 
-Spacing: parts sharing a rod, tube or edge cannot pass through each other.
+Spacing: parts sharing a rod, tube, edge or hook cannot pass through each other.
 
 For two connections i, j on one primitive of length L, to different parts,
 with half-widths c_i, c_j (a hook's wire radius, half a clip's width):
@@ -34,6 +34,10 @@ class Spacing:
     length: float
     gap: float  # c_i + c_j, mm
     sign: float
+    # on a hook's arc: not spread at the start (parts hung on one hook start where they
+    # hang, their order the check's closure's: spread along the closet basket's handle,
+    # its two eye hooks crossed over and the basket hung turned round)
+    along_arc: bool = False
 
 
 def spacing_constraints(model: Model, x0: Array) -> list[Spacing]:
@@ -42,11 +46,7 @@ def spacing_constraints(model: Model, x0: Array) -> list[Spacing]:
     ] = {}  # host -> (t index, other part, half-width)
     for joint in model.joints:
         for host, guest in ((joint.a, joint.b), (joint.b, joint.a)):
-            if host.primitive.kind not in ("rod", "tube", "edge"):
-                continue
-            slide = next(
-                (i for i, d in zip(host.dof_indices, host.primitive.dofs, strict=True) if d.critical), None
-            )
+            slide = _place_on(host)
             if slide is None:
                 continue
             entries = shares.setdefault((host.part, host.primitive.name), [])
@@ -54,11 +54,29 @@ def spacing_constraints(model: Model, x0: Array) -> list[Spacing]:
                 entries.append((slide, guest.part, half_width(joint, guest)))
     constraints = []
     for (part, name), entries in shares.items():
-        length = model.parts[part].spec.primitive(name).params["length"]  # type: ignore[union-attr]
+        shared = model.parts[part].spec.primitive(name)
+        assert shared is not None
+        along_arc = shared.kind == "hook"
+        # mm per unit of the place: a slide's t its whole length, a hook's theta a degree of its arc
+        length = float(np.radians(shared.params["arc_radius"])) if along_arc else shared.params["length"]
         for (i, _, ci), (j, _, cj) in ((a, b) for k, a in enumerate(entries) for b in entries[k + 1 :]):
             sign = 1.0 if x0[j] >= x0[i] else -1.0
-            constraints.append(Spacing(i, j, length, ci + cj, sign))
+            constraints.append(Spacing(i, j, length, ci + cj, sign, along_arc))
     return constraints
+
+
+def _place_on(host: Side) -> int | None:
+    """The DoF that says where along its host a connection sits, where parts
+    side by side must keep apart: a rod's, tube's or edge's t; a hook's theta
+    along its arc (two rings on one hook hang side by side near its lowest
+    point, not one in the other). Not a ring's or a coil's turn all round,
+    nor a surface's (its objects' bases: fabhal/solve/__init__.py)."""
+    kind, dofs = host.primitive.kind, host.primitive.dofs
+    if kind in ("rod", "tube", "edge"):
+        return next((i for i, d in zip(host.dof_indices, dofs, strict=True) if d.critical), None)
+    if kind == "hook" and not dofs[0].periodic:
+        return host.dof_indices[0]
+    return None
 
 
 def half_width(joint: Joint, guest: Side) -> float:
@@ -95,6 +113,7 @@ def spread(constraints: list[Spacing], x: Array, low: Array, high: Array) -> Arr
     reports what it cannot close). A DoF whose range is one value (`low` ==
     `high`: written by the program) stays where it is."""
     x = x.copy()
+    constraints = [c for c in constraints if not c.along_arc]
     gaps = {}
     for c in constraints:
         gaps[c.first, c.second] = gaps[c.second, c.first] = c.gap / c.length

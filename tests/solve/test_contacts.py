@@ -234,31 +234,50 @@ def test_parts_left_inside_each_other_are_never_solved(tmp_path: Path) -> None:
     assert overlap.span is not None and overlap.span.line == 15
 
 
-def test_two_rings_hung_at_one_spot_are_never_solved(tmp_path: Path) -> None:
-    """Two toss rings hung on one S-hook's lower hook both hang at its lowest
-    point, one ring on the other: same size, same centre, same plane (turned
-    about their own axis, which a ring does not show). No point of one is
-    inside the other (each lies on the other's surface, the grid reading 0.3
-    mm), so no depth showed and they came back `solved`. Now nearly all of one
-    ring's check points within COINCIDE_MM of the other's surface (all here;
-    the gallery's most is 9 %, a bottle on its basket's floor) is E508: in one
-    place."""
-    from fabhal.solve.contacts import check, coinciding
-
-    program = tmp_path / "rings.fhl"
-    program.write_text(
-        """\
+TWO_RINGS_ON_A_HOOK = """\
 environment rod = Rod(length: 500, radius: 2) at (0, 0, 300) rot (90, 0, 90)
 s = DoubleHookMedium()
 a = RingM()
 b = RingM()
 connect s.hook2 -- rod
-connect a.ring -- s.hook1
-connect b.ring -- s.hook1
+connect a.ring -- s.hook1{setting}
+connect b.ring -- s.hook1{setting}
 target a at (0, 0, 200)
 """
-    )
-    result = api.solve(program)
+
+
+def test_two_rings_on_one_hook_hang_side_by_side(tmp_path: Path) -> None:
+    """Two toss rings on one S-hook's lower hook both want its lowest point
+    (theta 180 on its arc); their wires (3.3 mm thick) keep them c_a + c_b =
+    6.6 mm apart along the arc's centre line (16 mm radius: 23.6 degrees),
+    and by symmetry they sit either side of the lowest point, equally far (to
+    1 degree: the rings touch each other too, and the settle stops within its
+    tolerance). They hung one in the other, in one place, and came back
+    solved."""
+    result = api.solve(_program(tmp_path, TWO_RINGS_ON_A_HOOK.format(setting="")))
+    assert result.status == "solved", result.diagnostics
+    solution = result.solution
+    thetas = [
+        float(solution.x[i]) for i, v in enumerate(solution.model.variables) if v.name == "s.hook1.theta"
+    ]
+    assert len(thetas) == 2
+    low, high = sorted(thetas)
+    assert (high - low) * np.radians(16.0) >= 6.6 - 1e-6
+    assert abs((180.0 - low) - (high - 180.0)) < 1.0
+
+
+def test_two_rings_held_at_one_spot_are_never_solved(tmp_path: Path) -> None:
+    """The same two rings, each written at the hook's theta 180: one on the
+    other, same size, same centre, same plane (turned about their own axis,
+    which a ring does not show). No point of one is inside the other (each
+    lies on the other's surface, the grid reading 0.3 mm), so no depth shows;
+    nearly all of one ring's check points within COINCIDE_MM of the other's
+    surface (all here; the gallery's most is 9 %, a bottle on its basket's
+    floor) is E508: in one place, never solved."""
+    from fabhal.solve.contacts import check, coinciding
+
+    written = " set (s.hook1.theta: 180)"
+    result = api.solve(_program(tmp_path, TWO_RINGS_ON_A_HOOK.format(setting=written)))
     assert result.status == "not_at_rest"
     (overlap,) = [d for d in result.diagnostics if d.code == "E508"]
     assert any(f"{pair} are in one place" in overlap.message for pair in ("`a` and `b`", "`b` and `a`"))
@@ -268,6 +287,12 @@ target a at (0, 0, 200)
         frozenset((solution.model.part_index("a"), solution.model.part_index("b")))
     }
     assert check(solution.model, solution.x, pairs).on_surface.max() == pytest.approx(1.0)
+
+
+def _program(tmp_path: Path, text: str) -> Path:
+    program = tmp_path / "hack.fhl"
+    program.write_text(text)
+    return program
 
 
 @pytest.mark.parametrize(("fine_depth", "code"), [(0.9, None), (2.8, "W508"), (5.0, "W508"), (5.1, "E508")])

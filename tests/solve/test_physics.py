@@ -644,7 +644,9 @@ def test_a_loop_keeps_the_order_its_closure_found_on_a_shared_rod(tmp_path: Path
     widths apart (the S-hook's 4 mm wire and the handle's, 8 mm in all: the
     spacing rule, to 1e-6 mm).
 
-    The default way round (pinned `noflip`) the S-hook hangs swung along the
+    The default way round (both of the handle's connections pinned `noflip`;
+    with only the S-hook's pinned, the solver turns the handle's on the rod
+    over, and it hangs) the S-hook hangs swung along the
     rod with its lower hook jammed in the handle, and the balance needs the
     handle to pull it up (about 0.1 N of its 0.106 N weight; the rod takes
     the rest): this was once `solved`. A contact only presses, so the S-hook
@@ -660,8 +662,8 @@ def test_a_loop_keeps_the_order_its_closure_found_on_a_shared_rod(tmp_path: Path
         points = model.connection_points(model.forward(solution.x))[on_rod]
         return float(abs(points[0][0] - points[1][0]))
 
-    handle = "connect mug.hook -- s1.hook1"
-    pinned = MUG_ON_ROD_AND_HOOK.replace(handle, f"{handle} noflip")
+    handle, on_rod = "connect mug.hook -- s1.hook1", "connect mug.hook -- rod"
+    pinned = MUG_ON_ROD_AND_HOOK.replace(handle, f"{handle} noflip").replace(on_rod, f"{on_rod} noflip")
     result = solve_text(tmp_path, pinned)
     assert result.status == "falls_apart", result.diagnostics
     (lifts,) = [d for d in result.diagnostics if d.code == "E512"]
@@ -691,7 +693,7 @@ def test_a_loop_that_puts_two_parts_in_one_place_is_e423(tmp_path: Path) -> None
     model = api.check(program).model
     step1, _ = step_one(model, 0, None, float("inf"))
     closed = model.x_default()
-    rule = step1.spacing[0]
+    rule = next(rule for rule in step1.spacing if not rule.along_arc)  # the rod's
     closed[rule.first], closed[rule.second] = 0.5, 0.5 + 2.0 / rule.length
     crowded = _crowded(step1, closed[step1.free], closed)
     assert crowded is not None and crowded.code == "E423"
