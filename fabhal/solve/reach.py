@@ -108,7 +108,17 @@ def diagnose(
 
 
 def _what_limits(model: Model, goal: target_mod.TargetGoal, x: Array, frames: Array, gap: float) -> str:
-    """The support the target hangs from, and how far the parts get from it."""
+    """The support the target hangs from, and how far the parts get from it;
+    for a target standing on the world's floor where step 1 does not move it
+    (another object there is placed by nothing: `model._stood_where_asked`),
+    how to place it."""
+    stood = _stood_in_the_middle(model, goal.part)
+    if stood is not None:
+        return (
+            f"even turned freely, it stays {gap:.0f} mm away: it stands in the middle of `{stood}`, where "
+            "another object on that floor stands wherever the solver puts it; say where that one stands "
+            "(`set (...)` on its line) and this one is stood where asked, or set where this one stands"
+        )
     support, anchor = _support(model, goal.part, x, frames)
     requested = goal.requested[:3, 3]
     reached = target_mod.achieved(goal, frames)[:3, 3]
@@ -129,6 +139,21 @@ def _what_limits(model: Model, goal: target_mod.TargetGoal, x: Array, frames: Ar
             + (f" ({fewer})" if fewer else "")
         )
     return f"{nearest}, in a direction the connections cannot move it; move the request or the support"
+
+
+def _stood_in_the_middle(model: Model, part: int) -> str | None:
+    """The floor (as `part.primitive`) the target stands on, where that is the
+    world's and step 1 keeps it in its middle; else None."""
+    for standing in model.standing:
+        joint = model.joints[standing.joint]
+        floor, thing = (joint.a, joint.b) if standing.floor == "a" else (joint.b, joint.a)
+        slide = set(standing.slide)
+        kept = (
+            slide <= model.pinned and not slide & model.written
+        )  # in the middle, not where the program says
+        if thing.part == part and model.parts[floor.part].environment and kept:
+            return str(joint.endpoint(floor))
+    return None
 
 
 def _support(model: Model, part: int, x: Array, frames: Array) -> tuple[str, Array]:

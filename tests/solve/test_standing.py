@@ -314,6 +314,9 @@ def test_two_bottles_stood_on_one_spot_are_not_solved(tmp_path: Path) -> None:
     assert overlap.span is not None and overlap.span.line == 5
     assert "`b` stands on `board.surface2` where `a` stands: their bases overlap by" in overlap.message
     assert "set (board.surface2.t2: 0.8)" in overlap.help
+    # and the target, kept in the middle, is out of its request's reach for that reason, not for want of parts
+    (reach,) = [d for d in result.diagnostics if d.code == "W505"]
+    assert "it stands in the middle of `board.surface2`" in reach.help and "add parts" not in reach.help
 
 
 def test_two_bottles_placed_apart_on_one_shelf_stand_there(tmp_path: Path) -> None:
