@@ -295,7 +295,10 @@ def dofs_of(variant: str, params: Mapping[str, float], flags: Mapping[str, bool]
         # hook's arc centre instead of its handle
         "Rod": lambda: (_slide("t", slides_off), flex_phi, _spin("spin")),
         # what is threaded on a centre line may also turn about it (the reference has no such DoF)
-        "RodCtl": lambda: (_slide("t", slides_off), _spin("spin")),
+        # phi (the reference has none): what hangs on a centre line tilts along it, as on a
+        # rod's surface, until its wire jams (`tilt_jam_deg`); held square, a hook near a
+        # flag stick's end held the stick out as a cantilever
+        "RodCtl": lambda: (_slide("t", slides_off), _spin("spin"), flex_phi),
         "Tube": lambda: (_slide("t", slides_off), _spin("theta", 180.0)),
         "TubeCtl": lambda: (_slide("t", slides_off), _spin("theta", 180.0)),
         "Hook": lambda: (_hook_theta(params, flags),),
@@ -345,7 +348,9 @@ _AXIS_TO_Y = rot_x(-90.0)  # a centre-line connector's y runs along the primitiv
 def _rod_centerline(p: Mapping[str, float | Array], x: Array) -> Array:
     spin = x[..., 1] if x.shape[-1] > 1 else np.zeros(x.shape[:-1])  # about the axis: connector y
     along = translation(0.0, 0.0, (x[..., 0] - 0.5) * p["length"]) @ _AXIS_TO_Y
-    return along @ rot_y(spin)
+    if x.shape[-1] < 3:
+        return along @ rot_y(spin)
+    return along @ rot_y(spin) @ rot_x(x[..., 2] - 90.0)  # the tilt along the axis, square at 90
 
 
 def _tube_at(rho: float | Array, p: Mapping[str, float | Array], x: Array) -> Array:
@@ -629,7 +634,7 @@ def ring_spin_stop_deg(ring: Primitive, hook: Primitive) -> float | None:
 
 # the variants whose `phi` turns about the line of the contact
 FLEXING = ("HookFlex", "RingFlex", "RingFlexSpin")
-TILTING = ("Rod",)  # the variants whose `phi` tilts what hangs on them along them
+TILTING = ("Rod", "RodCtl")  # the variants whose `phi` tilts what hangs on them along them
 SPINNING = ("RingSpin", "RingFlexSpin")  # the variants whose `spin` turns them about their own wire
 
 

@@ -136,13 +136,36 @@ def test_dof_tags_follow_the_physics() -> None:
 
 def test_what_is_threaded_on_a_centre_line_may_turn_about_it() -> None:
     cable = part("Cable").primitive("rod1")
-    assert cable is not None and [d.name for d in cable.dofs] == ["t", "spin"]
-    frames = cable.connector_frames(np.array([[0.3, 0.0], [0.3, 70.0]]))
+    assert cable is not None and [d.name for d in cable.dofs] == ["t", "spin", "phi"]
+    frames = cable.connector_frames(np.array([[0.3, 0.0, 90.0], [0.3, 70.0, 90.0]]))
     np.testing.assert_allclose(frames[0][:3, 3], frames[1][:3, 3], atol=1e-12)  # same point on the axis
     axis = cable.base_frame()[:3, 2]
     np.testing.assert_allclose(
         frames[1][:3, :3] @ frames[0][:3, :3].T @ axis, axis, atol=1e-12
     )  # turned about it
+
+
+def test_what_hangs_on_a_centre_line_tilts_along_it_until_its_wire_jams() -> None:
+    """A centre-line rod's third DoF tilts what hangs on it along it (about the
+    connector's x, square to the axis): square at 90, and tilted by b the
+    connector's y (along the axis at 90) turns b away from the axis, the point
+    on the axis staying put. Its range is the jam of the loop on the rod, as on
+    a rod's surface: a ceiling hook (inside 25 - 2.5 = 22.5 mm, its wire's
+    radius off its arc's) on the flag stick (6.35 mm) jams at acos(6.35 /
+    22.5) = 73.6 degrees (`tilt_jam_deg`); held square, a hook near the
+    stick's end held it out as a cantilever."""
+    from fabhal.primitives import jam_of
+
+    stick = part("FlagRod").primitive("rod")
+    assert stick is not None and [d.name for d in stick.dofs] == ["t", "spin", "phi"]
+    square, tilted = stick.connector_frames(np.array([[0.4, 0.0, 90.0], [0.4, 0.0, 120.0]]))
+    np.testing.assert_allclose(square[:3, 3], tilted[:3, 3], atol=1e-12)
+    assert float(square[:3, 1] @ tilted[:3, 1]) == pytest.approx(np.cos(np.radians(30.0)))
+    hook = part("CeilingHook").primitive("hook")
+    assert hook is not None
+    inside = hook.params["arc_radius"] - hook.params["thickness"]
+    expected = np.degrees(np.arccos(stick.params["radius"] / inside))
+    assert jam_of(stick.dofs[2], stick, hook) == pytest.approx(expected, abs=0.05)
 
 
 def test_a_hook_falls_off_its_tip_only() -> None:

@@ -174,3 +174,29 @@ def test_a_hook_tilts_along_a_steep_rod_until_its_wire_jams(
         joint = model.joints[0]
         contact = model.connector_frame(joint.b, solution.x, solution.frames)[:3, 3]
         assert float(np.linalg.norm(hook[:2] - contact[:2])) < 0.5
+
+
+def test_a_stick_hooked_near_its_end_tilts_in_the_hook_to_its_jam(tmp_path: Path) -> None:
+    """A flag stick (a centre-line rod, 280 mm, 6.35 mm radius) hooked by a
+    ceiling hook 7 mm from its end (written there, so it cannot slide): a hook
+    holds it at a point, which carries no moment until the hook's wire jams
+    on the stick, at acos(6.35 / (25 - 2.5)) = 73.6 degrees from square. Its
+    centre of mass, 133 mm along, pulls it towards hanging plumb, so it tilts
+    to the jam and rests there, inclined 73.6 degrees (to 0.5: the settle's
+    tolerance at a stop). Held square, it stood out level as a cantilever,
+    `solved`."""
+    program = tmp_path / "stick.fhl"
+    program.write_text(
+        """\
+environment ceiling = CeilingHook() at (0, 0, 1500)
+stick = FlagRod()
+connect stick.rod -- ceiling.hook set (stick.rod.t: 0.025)
+target stick at (0, 0, 1400)
+"""
+    )
+    result = api.solve(program)
+    assert result.status == "solved", result.diagnostics
+    solution = result.solution
+    axis = solution.frames[solution.model.part_index("stick")][:3, 2]
+    inclination = np.degrees(np.arcsin(abs(axis[2])))
+    assert inclination == pytest.approx(np.degrees(np.arccos(6.35 / 22.5)), abs=0.5)
