@@ -240,6 +240,9 @@ def renderables(result: SolveOutcome, program: str) -> list[RenderableType]:
         table.add_row(part.name, part.type_name, _triple(frame["pos"]), _triple(frame["rot"]), mass)
     what = "a part, what holds it" + (" and the force between them" if solution.forces is not None else "")
     chain = Text(f"how it hangs (each line: {what})\n", style="bold")
+    if solution.forces is not None and any(d.code == "E508" for d in solution.diagnostics):
+        # springs deep in a part push far beyond a real contact (a roll 10 mm in a rod: 124 N)
+        chain.append("  (parts lie inside each other here, E508: the forces are not the hack's)\n")
     for depth, line in hanging_lines(solution.model, solution.forces):
         chain.append("  " * (depth + 1) + line + "\n")
     for contact in solution.contacts:

@@ -89,6 +89,22 @@ def test_a_hack_that_falls_apart_exits_one(tmp_path: Path) -> None:
     assert "rod.t" in data["connections"][0]["at_bound"]
 
 
+def test_forces_shown_where_parts_lie_inside_each_other_say_they_are_not_the_hacks(tmp_path: Path) -> None:
+    """A towel roll hung under a tension rod with its wall 10 mm in the rod
+    (E508): the connection and contact forces listed under "how it hangs" are
+    the contact springs' at that depth, which no real contact makes; the
+    listing says so before them."""
+    program = tmp_path / "roll.fhl"
+    program.write_text(
+        "environment rod = LongTensionRod() at (0, 0, 0)\ns = DoubleHookMedium()\nroll = PaperTowelRoll()\n"
+        "connect s.hook1 -- rod.rod\nconnect roll.tube -- s.hook2\ntarget roll at (800, 127, 2000)\n"
+    )
+    run = fabhal("solve", str(program))
+    assert run.returncode == 1
+    text = " ".join(run.stdout.split())
+    assert "how it hangs" in text and "E508: the forces are not the hack's" in text
+
+
 def test_program_errors_exit_one_without_a_traceback(tmp_path: Path) -> None:
     program = tmp_path / "bad.fhl"
     program.write_text("s = DoubleHoook()\n")
