@@ -157,6 +157,11 @@ class Model:
         high = np.array([np.inf if v.dof.periodic else v.dof.high for v in self.variables])
         return low, high
 
+    def standing_sides(self, standing: Standing) -> tuple[Side, Side]:
+        """A standing object's connection as (the floor's side, the object's)."""
+        joint = self.joints[standing.joint]
+        return (joint.a, joint.b) if standing.floor == "a" else (joint.b, joint.a)
+
     def part_index(self, name: str) -> int:
         return next(i for i, p in enumerate(self.parts) if p.name == name)
 

@@ -22,7 +22,7 @@ from fabhal.kinematics.contact import rectangles_overlap
 from fabhal.kinematics.frames import Array
 from fabhal.kinematics.statics import Wrenches
 from fabhal.meshes import mass_properties
-from fabhal.model import Joint, Model, Side, build_model
+from fabhal.model import Joint, Model, Side, Standing, build_model
 from fabhal.optimize import Result
 from fabhal.solve import aim as aim_mod
 from fabhal.solve import reach
@@ -1635,8 +1635,8 @@ def _below_the_floor(model: Model, x: Array, pairs: Pairs, floor: Side, both: fr
     return bool(len(found)) and float(found.max()) <= 1.0
 
 
-def _stood_on_one_spot(model: Model, x: Array) -> list[tuple[int, int, float]]:
-    """(connection, other connection, depth mm) of two objects standing on one
+def _stood_on_one_spot(model: Model, x: Array) -> list[tuple[Standing, Standing, float]]:
+    """(an object standing, another, depth mm) of two objects standing on one
     floor whose bases overlap there by more than OVERLAP_KEPT_MM. Step 1 stands
     every object in its floor's middle, so two of them on one floor stand on
     one spot; two alike then coincide, and the contact check, which looks for
@@ -1645,36 +1645,32 @@ def _stood_on_one_spot(model: Model, x: Array) -> list[tuple[int, int, float]]:
     are rectangles in the floor's plane (the object's surface's length along
     its connector frame's x, its width along y)."""
     frames = model.part_frames(x)
-    by_floor: dict[tuple[int, str], list[tuple[int, Side, tuple[float, float]]]] = {}
+    by_floor: dict[tuple[int, str], list[Standing]] = {}
     for standing in model.standing:
-        joint = model.joints[standing.joint]
-        floor, thing = (joint.a, joint.b) if standing.floor == "a" else (joint.b, joint.a)
-        on = (floor.part, floor.primitive.name)
-        by_floor.setdefault(on, []).append((joint.index, thing, standing.base))
+        floor, _ = model.standing_sides(standing)
+        by_floor.setdefault((floor.part, floor.primitive.name), []).append(standing)
     found = []
     for objects in by_floor.values():
-        for (first, a, a_base), (second, b, b_base) in itertools.combinations(objects, 2):
-            placed = [model.connector_frame(side, x, frames) for side in (a, b)]
+        for first, second in itertools.combinations(objects, 2):
+            placed = [model.connector_frame(model.standing_sides(s)[1], x, frames) for s in (first, second)]
             depth = rectangles_overlap(
                 np.array([frame[:3, 3] for frame in placed]),
                 np.array([[frame[:3, 0], frame[:3, 1]] for frame in placed]),
-                np.array([(a_base[1] / 2.0, a_base[0] / 2.0), (b_base[1] / 2.0, b_base[0] / 2.0)]),
+                np.array([(s.base[1] / 2.0, s.base[0] / 2.0) for s in (first, second)]),
             )
             if depth > OVERLAP_KEPT_MM:
                 found.append((first, second, depth))
     return found
 
 
-def _one_spot_diagnostic(model: Model, first: int, second: int, depth: float) -> Diagnostic:
+def _one_spot_diagnostic(model: Model, first: Standing, second: Standing, depth: float) -> Diagnostic:
     """At the connection of the one of the two that is not the target (the
     solver stands the target where it is asked for, the rest in the middle)."""
     target = model.program.targets[0].part
-    joints = [model.joints[first], model.joints[second]]
-    floors = {s.joint: s.floor for s in model.standing}
-    sides = [(j.a, j.b) if floors[j.index] == "a" else (j.b, j.a) for j in joints]
+    sides = [model.standing_sides(s) for s in (first, second)]
     names = [model.parts[thing.part].name for _, thing in sides]
     k = 0 if names[1] == target else 1
-    joint, (floor, _) = joints[k], sides[k]
+    joint, (floor, _) = model.joints[(first, second)[k].joint], sides[k]
     on = joint.endpoint(floor)
     return error(
         "E508",

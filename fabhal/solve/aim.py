@@ -213,9 +213,9 @@ def _counted_from(model: Model, i: int) -> str:
     others = [p for p in model.parts[side.part].spec.primitives if p.name != primitive.name]
     if primitive.kind not in ("rod", "tube") or not others:
         return ""
-    half = primitive.params["length"] / 2.0
-    base = primitive.base_frame()
-    start, end = ((base @ np.array([0.0, 0.0, z, 1.0]))[:3] for z in (-half, half))
+    # where t = 0 and t = 1 put a connection on it, the other DoFs at their defaults
+    at_ends = np.array([[t, *(d.default for d in primitive.dofs[1:])] for t in (0.0, 1.0)])
+    start, end = primitive.connector_frames(at_ends)[:, :3, 3]
     by = min(others, key=lambda p: float(np.linalg.norm(p.base_frame()[:3, 3] - start)))
     place = by.base_frame()[:3, 3]
     if np.linalg.norm(place - start) > NAMED_END_SHARE * np.linalg.norm(place - end):

@@ -158,7 +158,7 @@ def topples(model: Model, x: Array, wrenches: Wrenches, at_bound: set[int]) -> t
         if at_bound & set(standing.slide):
             continue
         joint = model.joints[standing.joint]
-        floor, thing = (joint.a, joint.b) if standing.floor == "a" else (joint.b, joint.a)
+        floor, thing = model.standing_sides(standing)
         sign = 1.0 if standing.floor == "a" else -1.0  # the wrench is what a exerts on b
         force, moment = sign * wrenches.forces[joint.index], sign * wrenches.moments[joint.index]
         normal = model.connector_frame(floor, x, frames)[:3, 2]

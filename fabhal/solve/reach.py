@@ -145,14 +145,12 @@ def _stood_in_the_middle(model: Model, part: int) -> str | None:
     """The floor (as `part.primitive`) the target stands on, where that is the
     world's and step 1 keeps it in its middle; else None."""
     for standing in model.standing:
-        joint = model.joints[standing.joint]
-        floor, thing = (joint.a, joint.b) if standing.floor == "a" else (joint.b, joint.a)
+        floor, thing = model.standing_sides(standing)
         slide = set(standing.slide)
-        kept = (
-            slide <= model.pinned and not slide & model.written
-        )  # in the middle, not where the program says
+        # in the middle: not moved by step 1, nor where the program says
+        kept = slide <= model.pinned and not slide & model.written
         if thing.part == part and model.parts[floor.part].environment and kept:
-            return str(joint.endpoint(floor))
+            return str(model.joints[standing.joint].endpoint(floor))
     return None
 
 
