@@ -51,7 +51,11 @@ def test_the_gallery_has_every_program_of_the_paper() -> None:
 
 
 # programs known not to hang at rest yet, with the reason (strict: one that does, fails)
-NOT_YET_AT_REST: dict[str, str] = {}
+NOT_YET_AT_REST: dict[str, str] = {
+    "reading_nook": "its flat rings would turn about their bands in the links' hooks (E513): the library's "
+    "ObstacleRingL keeps the reference's contact on its inner line, and freed (`spin`) the canopy "
+    "swings 78 mm and 87 degrees off (docs/physics.md, Limits)",
+}
 
 
 @pytest.mark.parametrize(
@@ -73,6 +77,21 @@ def test_program_checks_cleanly_and_solves(program: str) -> None:
     position_error, rotation_error = solution.target_errors()
     assert np.isfinite(position_error) and np.isfinite(rotation_error)
     assert solution.equilibrium is not None and solution.equilibrium < 1e-3  # at rest
+
+
+def test_the_reading_nook_is_not_at_rest_its_rings_would_turn() -> None:
+    """The nook's chains of flat rings and C-links, pulled sideways by the hoop
+    they hold between them, need the rings to carry moments about their bands
+    that a band resting in a hook cannot (E513): at the worst ring the force
+    would act more than 100 mm beside the contact, against the 3 mm of its
+    band's half-thickness (measured 161 mm; the bound leaves room for the
+    flat valley its rest lies in). Nothing else keeps it from rest."""
+    result = solved("reading_nook")
+    assert result.status == "not_at_rest"
+    assert [d.code for d in result.diagnostics if d.is_error] == ["E513"]
+    (turn,) = result.solution.falls
+    assert turn.part.startswith("ring") and turn.lever_mm > 100.0 > 3.0 == turn.wire_mm
+    assert len(turn.others) >= 5  # the chains' rings turn all along them
 
 
 def test_reading_nook_hoop_hangs_between_shelf_and_camera_mount() -> None:
@@ -139,7 +158,7 @@ def test_crossing_wires_are_found_and_measured() -> None:
     from fabhal.solve.contacts import contact_pairs
 
     today = solved("reading_nook")
-    assert today.status == "solved" and "W508" not in [d.code for d in today.diagnostics]
+    assert "W508" not in [d.code for d in today.diagnostics]
     model = today.solution.model
     x = np.array(json.loads((REPO / "tests" / "data" / "reading_nook_crossed.json").read_text())["x"])
     limits = model.turn_limits
@@ -290,7 +309,7 @@ def test_the_order_of_lines_does_not_change_the_answer(program: str) -> None:
     reordered = written_in_reverse(path.read_text(), declarations=True)
     assert reordered != path.read_text()
     written, backwards = solved(program), api.solve(load_program(path, reordered))
-    assert backwards.status == written.status == "solved"
+    assert backwards.status == written.status == ("not_at_rest" if program == "reading_nook" else "solved")
     names = [p.name for p in written.solution.model.parts]
     assert names == [p.name for p in backwards.solution.model.parts]
     np.testing.assert_array_equal(backwards.solution.x, written.solution.x)

@@ -82,8 +82,9 @@ turned over it hangs (nearer): note N507 says so. If a connection would slide
 off an open end, or an object fall over on its floor or its round feet, from
 every start tried, the status is `falls_apart` and the message names the
 connection; a result that is not verified at rest (E503; an object sliding on
-its feet, E510), or where parts lie inside each other or the world, or in one
-place (E508), has the status `not_at_rest`.
+its feet, E510; a ring the model holds still that would turn about its own
+wire in a hook, E513), or where parts lie inside each other or the world, or
+in one place (E508), has the status `not_at_rest`.
 
 --time-limit bounds the whole command (checking included): at the limit the
 best result so far is reported, with warning W502; if the loops of the design

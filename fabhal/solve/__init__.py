@@ -41,25 +41,30 @@ from fabhal.solve.contacts import (
 )
 from fabhal.solve.energy import Energy
 from fabhal.solve.falls import (
+    RESTLESS,
     Failure,
     Fall,
     Lean,
     LiftOff,
     Slip,
     Topple,
+    Turn,
     fall_diagnostic,
     falling_part,
     lifts_off,
     tips_off_its_feet,
     topples,
+    turns_about_wires,
 )
 from fabhal.solve.forces import (
     Slide,
+    about_the_wire,
     connection_wrenches,
     friction_slides,
     normal_forces,
     slide_dofs,
     weight_newtons,
+    welded_rings,
 )
 from fabhal.solve.hanging import hanging_start
 from fabhal.solve.spacing import (
@@ -225,6 +230,10 @@ def solve(model: Model, options: SolveOptions, loop_start: Array | None = None) 
         return _aligned_nearer(model, options, first)
     if first.status in ("solved", "infeasible", "error") or one_try:
         return first
+    if first.falls and all(isinstance(fall, Turn) for fall in first.falls):
+        # a ring held still by the model's contact: the ring's model is what fails, not the
+        # start or the way a connection is turned (the reading nook's rings, from seeds 0-3)
+        return first
     if not first.falls:  # not at rest, or inside something: turned over, it may hang
         return _aligned(model, options, first) or _with_flip_advice(model, options, first)
     turned_first = all(isinstance(fall, Lean) for fall in first.falls) or first.in_the_world
@@ -273,6 +282,8 @@ def _what_failed(fall: Failure) -> str:
         return "slid on its feet"
     if isinstance(fall, LiftOff):
         return "lifted off its contact"
+    if isinstance(fall, Turn):
+        return "was held by its ring's contact kept on the inner line"
     return "hung on a lean's limit" if isinstance(fall, Lean) else "slid off"
 
 
@@ -616,7 +627,7 @@ def _solve_once(model: Model, options: SolveOptions, loop_start: Array | None) -
     else:
         warned = _crossings(model, x, looked)
         diagnostics.extend(_crossing_diagnostic(model, *crossing) for crossing in warned[:1])
-    if any(not isinstance(fall, Lean | Slip) for fall in falls):
+    if any(not isinstance(fall, RESTLESS) for fall in falls):
         status = "falls_apart"
     elif falls:
         status = "not_at_rest"  # held by a lean's stop, or feet that slide: not a state of rest
@@ -707,7 +718,7 @@ def _aimed(
     chosen = aim_mod.choices(step1)
     # a result that falls apart is not aimed from (one that leans on a stop is: aiming may
     # find the settings where nothing leans)
-    falls = any(not isinstance(fall, Lean | Slip) for fall in settled.falls)
+    falls = any(not isinstance(fall, RESTLESS) for fall in settled.falls)
     if not len(chosen) or falls or not np.all(np.isfinite(settled.x)):
         return settled, []
     options.report("step 3: aiming the settings that stay put, for where the hack hangs")
@@ -847,11 +858,13 @@ def _wrenches(
     centres: Array,
     slides: list[Slide],
     contacts: tuple[Contact, ...],
+    also_free: tuple[Array, Array, Array] | None = None,
 ) -> Wrenches:
     """What every connection carries at x: load along a motion is carried where
     the motion does not move in `problem` (held, pinned), rests on an end of its
-    range, or is a slide friction holds; every other motion is free. What the
-    environment's contacts carry is taken off first."""
+    range, or is a slide friction holds; every other motion is free, and so are
+    `also_free` (`forces.about_the_wire`). What the environment's contacts carry
+    is taken off first."""
     model = problem.model
     moving = set(problem.free.tolist())
     fixed = {i for i in range(len(model.variables)) if i not in moving}
@@ -859,7 +872,27 @@ def _wrenches(
     loads = contact_loads(model, contacts) if contacts else None
     carrying = fixed | ends | set(slide_dofs(slides))
     slack = EQUILIBRIUM_TOLERANCE * float(weight_newtons(masses).sum())  # N left unbalanced at rest
-    return connection_wrenches(model, x, masses, centres, carrying, loads, slack)
+    return connection_wrenches(model, x, masses, centres, carrying, loads, slack, also_free)
+
+
+def _turning_rings(
+    problem: Problem,
+    x: Array,
+    masses: Array,
+    centres: Array,
+    slides: list[Slide],
+    contacts: tuple[Contact, ...],
+    wrenches: Wrenches,
+) -> tuple[Turn, ...]:
+    """The welded rings that would turn about their wires at x (`falls.Turn`)."""
+    rings = welded_rings(problem.model)
+    if not rings:
+        return ()
+    freed = _wrenches(problem, x, masses, centres, slides, contacts, about_the_wire(problem.model, x, rings))
+    newtons = float(weight_newtons(masses).sum())
+    return turns_about_wires(
+        problem.model, x, rings, wrenches, freed, EQUILIBRIUM_TOLERANCE * newtons, newtons
+    )
 
 
 def _settle(
@@ -1166,7 +1199,10 @@ def _settle_with(
     wrenches = _wrenches(step2, x, masses, centres, slides, contacts)
     tipping = (*topples(model, x, wrenches, set(at_bound)), *tips_off_its_feet(model, x, wrenches, weight))
     lifts = lifts_off(model, x, wrenches, masses)
-    return Settled(x, equilibrium, at_bound, (*falls, *tipping, *lifts), wrenches.forces, contacts, leaning)
+    turns = _turning_rings(step2, x, masses, centres, slides, contacts, wrenches)
+    return Settled(
+        x, equilibrium, at_bound, (*falls, *tipping, *lifts, *turns), wrenches.forces, contacts, leaning
+    )
 
 
 def _friction_left(

@@ -4,11 +4,12 @@ only by the model's limit (`Lean`, E509), both found by the settle's
 verification (fabhal/solve/__init__.py), and, found here in the settled
 statics' wrenches, a contact that would have to pull (`LiftOff`, E512), a
 standing object that falls over (`Topple`, E507) or slides on its round feet
-(`Slip`, E510). docs/errors.md explains each error."""
+(`Slip`, E510), and a ring that would turn about its own wire (`Turn`,
+E513). docs/errors.md explains each error."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -16,7 +17,7 @@ from fabhal.diagnostics import Diagnostic, error
 from fabhal.kinematics.frames import Array
 from fabhal.kinematics.statics import MOMENT_ARM_MM, Wrenches, pressing
 from fabhal.model import Joint, Model, Side, threaded
-from fabhal.solve.forces import point_contacts, weight_newtons
+from fabhal.solve.forces import WELDED_RINGS, WeldedRing, point_contacts, weight_newtons
 from fabhal.solve.steps import FRICTION, FRICTION_AGREEMENT
 
 # a standing object falls over when its floor would have to push beyond the edge
@@ -81,8 +82,28 @@ class Topple:
     on_feet: bool = False  # it stands on round feet (points), not on a base
 
 
+@dataclass(frozen=True)
+class Turn:
+    """A ring held by a hook that would turn about its own wire: the model keeps
+    its contact on the ring's inner line (no `spin`), and at rest there the
+    contact carries a moment about the wire that two wires touching at a point
+    cannot: its force would have to act further from the contact than the
+    ring's wire is thick. The real ring turns (where to is not computed)."""
+
+    joint: int
+    ring: str  # the ring's endpoint, as written
+    hook: str
+    part: str  # the ring's part
+    moment: float  # N mm about the ring's wire
+    lever_mm: float  # how far beside the contact the force would have to act
+    wire_mm: float  # the ring's wire radius
+    others: tuple[str, ...] = ()  # the other rings that would turn, by how much over their wires, most first
+
+
 # what keeps a result from being at rest, each said by an error
-Failure = Fall | Topple | Lean | Slip | LiftOff
+Failure = Fall | Topple | Lean | Slip | LiftOff | Turn
+# held only by the model (a lean's stop, a welded ring) or sliding feet: not at rest, nothing falls
+RESTLESS = Lean | Slip | Turn
 
 
 # a contact "pulls" where the pull along its normal is over this fraction of the assembly's
@@ -124,6 +145,60 @@ def lifts_off(model: Model, x: Array, wrenches: Wrenches, masses: Array) -> tupl
                 LiftOff(joint.index, str(joint.endpoint(holder)), str(joint.endpoint(held)), name, -force)
             )
     return tuple(lifts)
+
+
+def turns_about_wires(
+    model: Model,
+    x: Array,
+    rings: list[WeldedRing],
+    wrenches: Wrenches,
+    freed: Wrenches,
+    slack: float,
+    newtons: float,
+) -> tuple[Turn, ...]:
+    """The welded rings (`forces.welded_rings`) that would turn about their wires.
+    `wrenches`: the statics as the model has it; `freed`: the same with each
+    ring's turn about its wire left free (`forces.about_the_wire`), both with
+    `slack` (N), the imbalance a state at rest keeps (a thousandth of the
+    weight, `newtons`). Where the freed statics balance every part within it,
+    some split of the load needs no ring to carry a moment about its wire: at
+    rest.
+    Otherwise a ring turns where its moment about its wire's centre line,
+    M = (m + w z x f) . y (m about the contact, w the wire's radius, y along
+    the wire, z from the wire to what holds it), is more than its force |f|
+    acting at the wire's far side, |f| w: no contact on that wire carries it.
+    Less, its contact rocks on the wire's section (the paper-towel holder's
+    eye rings: 1.1 mm of 4.5), and a moment under 1 % of the weight at w is
+    the rounding of a ring that carries nothing."""
+    if freed.imbalance <= slack:
+        return ()
+    frames = model.part_frames(x)
+    turns = []
+    for ring in rings:
+        connector = model.connector_frame(ring.ring, x, frames)
+        wire = float(ring.ring.primitive.params["thickness"])
+        force, moment = wrenches.forces[ring.joint], wrenches.moments[ring.joint]
+        about = abs(float((moment + np.cross(wire * connector[:3, 2], force)) @ connector[:3, 1]))
+        carried = float(np.linalg.norm(force))
+        if about > max(carried, LIFT_CARRIES * newtons) * wire:
+            joint = model.joints[ring.joint]
+            turns.append(
+                Turn(
+                    ring.joint,
+                    str(joint.endpoint(ring.ring)),
+                    str(joint.endpoint(ring.hook)),
+                    model.parts[ring.ring.part].name,
+                    about,
+                    about / max(carried, 1e-12),
+                    wire,
+                )
+            )
+    if not turns:
+        return ()
+    worst, *others = sorted(turns, key=lambda turn: -turn.lever_mm / turn.wire_mm)
+    return (
+        replace(worst, others=tuple(dict.fromkeys(turn.ring for turn in others if turn.ring != worst.ring))),
+    )
 
 
 def _holder_and_held(model: Model, joint: Joint) -> tuple[Side, Side]:
@@ -242,6 +317,8 @@ def fall_diagnostic(model: Model, fall: Failure) -> Diagnostic:
         return _lean_diagnostic(model, fall)
     if isinstance(fall, LiftOff):
         return _lift_off_diagnostic(model, fall)
+    if isinstance(fall, Turn):
+        return _turn_diagnostic(model, fall)
     variable = model.variables[fall.dof]
     joint = model.joints[fall.joint]
     end = joint.connection.a if variable.side == "a" else joint.connection.b
@@ -298,10 +375,30 @@ def _lift_off_diagnostic(model: Model, lift: LiftOff) -> Diagnostic:
     )
 
 
+OTHERS_NAMED = 3  # E513 names this many of the other rings that would turn
+
+
+def _turn_diagnostic(model: Model, turn: Turn) -> Diagnostic:
+    others = ", ".join(f"`{ring}`" for ring in turn.others[:OTHERS_NAMED])
+    if len(turn.others) > OTHERS_NAMED:
+        others += f" and {len(turn.others) - OTHERS_NAMED} more"
+    also = f"; so would {others}" if others else ""
+    return error(
+        "E513",
+        f"not at rest: `{turn.ring}` would turn about its own wire in `{turn.hook}`: held still it "
+        f"carries {turn.moment:.0f} N mm about the wire, as if its force acted {turn.lever_mm:.0f} mm "
+        f"beside the contact (its wire is {2 * turn.wire_mm:g} mm thick){also}",
+        model.joints[turn.joint].connection.span,
+        "the model keeps this ring's contact on its inner line, as the reference does; a real ring turns "
+        "in the hook until what hangs from it pulls in line. Use a part whose ring says `spin: true` "
+        "(docs/primitives.md), or hang the ring so that what it carries pulls in its plane",
+    )
+
+
 def _welded_ring_on_a_hook(joint: Joint) -> bool:
     """A ring without `spin` (its contact kept on its inner line) held by a hook."""
     return any(
-        side.primitive.variant in ("Ring", "RingFlex") and other.primitive.kind == "hook"
+        side.primitive.variant in WELDED_RINGS and other.primitive.kind == "hook"
         for side, other in ((joint.a, joint.b), (joint.b, joint.a))
     )
 

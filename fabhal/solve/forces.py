@@ -14,7 +14,7 @@ import numpy as np
 
 from fabhal.kinematics.frames import Array, angular_velocities
 from fabhal.kinematics.statics import Wrenches, joint_wrenches
-from fabhal.model import Model
+from fabhal.model import Model, Side
 
 GRAVITY = 9.81  # m/s2
 SLIDING_KINDS = ("rod", "tube", "edge")
@@ -66,6 +66,45 @@ def point_contacts(model: Model) -> Array:
     )
 
 
+@dataclass(frozen=True)
+class WeldedRing:
+    """A ring held by a hook whose contact the model keeps on the ring's inner
+    line (no `spin`): it lacks the real ring's turn about its own wire, so it
+    can carry a moment about the wire that no contact of two wires carries."""
+
+    joint: int
+    ring: Side
+    hook: Side
+
+
+def welded_rings(model: Model) -> list[WeldedRing]:
+    """The rings without `spin` held by a hook, not taped or clipped there
+    (`fixed`: the tape carries what the contact does not)."""
+    return [
+        WeldedRing(joint.index, ring, hook)
+        for joint in model.joints
+        if not joint.held
+        for ring, hook in ((joint.a, joint.b), (joint.b, joint.a))
+        if ring.primitive.variant in WELDED_RINGS and hook.primitive.kind == "hook"
+    ]
+
+
+WELDED_RINGS = ("Ring", "RingFlex")  # hole variants whose contact stays on the inner line
+
+
+def about_the_wire(model: Model, x: Array, rings: list[WeldedRing]) -> tuple[Array, Array, Array]:
+    """Each welded ring's missing turn about its own wire, as a free motion for
+    `connection_wrenches`: the rotation about the wire's centre line (the
+    connector's y, through the point the wire's radius w behind the contact,
+    -w along the connector's z), so at the contact the velocity w x per radian.
+    (R,) joints, (R, 3) velocities (mm), (R, 3) rotations (rad)."""
+    frames = model.part_frames(x)
+    connectors = np.array([model.connector_frame(ring.ring, x, frames) for ring in rings]).reshape(-1, 4, 4)
+    wires = np.array([ring.ring.primitive.params["thickness"] for ring in rings])
+    joints = np.array([ring.joint for ring in rings], dtype=int)
+    return joints, wires[:, None] * connectors[:, :3, 0], connectors[:, :3, 1]
+
+
 def slide_dofs(slides: Iterable[Slide]) -> list[int]:
     return [i for slide in slides for i in slide.dofs]
 
@@ -78,6 +117,7 @@ def connection_wrenches(
     carrying: Iterable[int],
     contact_loads: tuple[Array, Array] | None = None,
     slack: float = 0.0,
+    also_free: tuple[Array, Array, Array] | None = None,
 ) -> Wrenches:
     """What every connection carries at x. `carrying`: the DoFs that can carry a
     load along their motion (held, pinned, resting on an end of their range,
@@ -109,6 +149,10 @@ def connection_wrenches(
     twists = fwd.own_twists[free]
     rotation = angular_velocities(twists).reshape(-1, 3)
     velocity = twists[:, :3, 3] + np.cross(rotation, points[joint]) if len(free) else np.zeros((0, 3))
+    velocity, rotation = sign[:, None] * velocity.reshape(-1, 3), sign[:, None] * rotation
+    if also_free is not None:
+        joint = np.concatenate([joint, also_free[0]])
+        velocity, rotation = np.vstack([velocity, also_free[1]]), np.vstack([rotation, also_free[2]])
     return joint_wrenches(
         part_a,
         part_b,
@@ -117,8 +161,8 @@ def connection_wrenches(
         loads,
         world_centres,
         joint,
-        sign[:, None] * velocity.reshape(-1, 3),
-        sign[:, None] * rotation,
+        velocity,
+        rotation,
         load_moments,
         point_contacts(model),
         slack,

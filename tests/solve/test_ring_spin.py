@@ -13,10 +13,12 @@ import numpy as np
 import pytest
 
 from fabhal import api
+from fabhal.meshes import mass_properties
 from fabhal.primitives import make_primitive, ring_spin_stop_deg
 from fabhal.solve import contact_pairs, step_one
 from fabhal.solve import target as target_mod
 from fabhal.solve.contacts import penetration
+from fabhal.solve.falls import Turn
 from fabhal.solve.steps import closure_residual_mm
 from tests.conftest import REPO
 from tests.solve.test_physics import solve_text
@@ -209,3 +211,62 @@ def test_the_hoop_on_twelve_chains_asked_for_where_they_end_hangs_there(tmp_path
     carried = np.linalg.norm(result.solution.forces[on_the_hoop], axis=1)
     assert len(carried) == 12
     np.testing.assert_allclose(carried, 211.0e-3 * 9.81 / 12, atol=5e-3)
+
+
+# a hoop hung from a ceiling hook, the builder holding the contact `theta` round the
+# hook's arc (120 is its lowest point: there the hoop hangs free)
+HOOP_ON_A_HELD_HOOK = """\
+environment c = CeilingHook() at (0, 0, 1000)
+hoop = {part}()
+connect hoop.ring -- c.hook set (c.hook.theta: {theta})
+target hoop.ring at (0, 0, 600)
+"""
+
+
+def hoop_on_a_held_hook(tmp_path: Path, part: str, theta: float) -> api.SolveResult:
+    return solve_text(tmp_path, HOOP_ON_A_HELD_HOOK.format(part=part, theta=theta))
+
+
+def test_a_welded_ring_held_up_a_hook_would_turn_about_its_wire(tmp_path: Path) -> None:
+    """Hand calculation. The hoop (211 g: 2.070 N) hangs from one contact, held
+    20 degrees up the hook's arc (theta 140). Welded (HulaHoop: no `spin`) its
+    plane turns with the contact, so its centre, where its weight acts, lies on
+    the line from the contact through its wire's centre line, 345.75 mm (the
+    ring's arc radius) from that line, 20 degrees from the vertical: about the
+    wire the contact carries M = 2.070 x 345.75 sin 20 = 2.070 x 118.25 =
+    244.8 N mm, as if its force acted 118.25 mm beside it, where touching
+    wires carry at most |f| w = 2.070 x 11.5 = 23.8 N mm (the force at the
+    wire's far side). The real hoop turns: E513, not at rest, whose numbers
+    are those (0.5 mm, 1 N mm: the mesh's centre of mass lies off the ring's
+    ideal centre by less than that). Held 1 degree up: 345.75 sin 1 = 6.03 mm
+    beside the contact, within the 11.5 mm wire, where the contact rocks on
+    it: solved."""
+    result = hoop_on_a_held_hook(tmp_path, "HulaHoop", 140)
+    assert result.status == "not_at_rest"
+    (turn,) = result.solution.falls
+    assert isinstance(turn, Turn) and turn.ring == "hoop.ring" and turn.hook == "c.hook"
+    assert abs(turn.lever_mm - 118.25) < 0.5 and abs(turn.moment - 244.8) < 1.0
+    (said,) = [d for d in result.diagnostics if d.code == "E513"]
+    assert said.span is not None and said.span.line == 3 and "245 N mm" in said.message
+    assert "`spin: true`" in (said.help or "")
+    nearly_free = hoop_on_a_held_hook(tmp_path, "HulaHoop", 121)
+    assert nearly_free.status == "solved", [d.message for d in nearly_free.diagnostics]
+
+
+def test_a_ring_that_may_turn_about_its_wire_hangs_under_it(tmp_path: Path) -> None:
+    """The same hoop with `spin: true` (LevelHulaHoop), held 20 degrees up the
+    hook: it turns about its wire's centre line until its weight acts on that
+    line, M = 0 (the hand calculation above with the lever 0): its centre of
+    mass lies in the vertical plane through the wire's centre line, within
+    0.5 mm (the settle stops at 1e-4 of the weight per mm), and it is at rest."""
+    result = hoop_on_a_held_hook(tmp_path, "LevelHulaHoop", 140)
+    assert result.status == "solved", [d.message for d in result.diagnostics]
+    solution = result.solution
+    (joint,) = solution.model.joints
+    ring = joint.a if solution.model.parts[joint.a.part].name == "hoop" else joint.b
+    contact = solution.model.connector_frame(ring, solution.x, solution.frames)
+    wire = contact[:3, 3] - 11.5 * contact[:3, 2]  # the wire's centre line, w behind the contact
+    hoop = solution.frames[ring.part]
+    centre = hoop[:3, :3] @ mass_properties(solution.model.parts[ring.part].spec).center_of_mass + hoop[:3, 3]
+    across = np.cross(contact[:3, 1], [0.0, 0.0, 1.0])  # horizontal, square to the wire
+    assert abs(float((centre - wire) @ across)) / np.linalg.norm(across) < 0.5
