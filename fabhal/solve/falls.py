@@ -87,15 +87,15 @@ class Turn:
     """A ring held by a hook that would turn about its own wire: the model keeps
     its contact on the ring's inner line (no `spin`), and at rest there the
     contact carries a moment about the wire that two wires touching at a point
-    cannot: its force would have to act further from the contact than the
-    ring's wire is thick. The real ring turns (where to is not computed)."""
+    cannot: its force would have to pass outside the ring's wire. The real ring
+    turns (where to is not computed)."""
 
     joint: int
     ring: str  # the ring's endpoint, as written
     hook: str
     part: str  # the ring's part
     moment: float  # N mm about the ring's wire
-    lever_mm: float  # how far beside the contact the force would have to act
+    lever_mm: float  # how far from the wire's centre line the force would have to pass
     wire_mm: float  # the ring's wire radius
     others: tuple[str, ...] = ()  # the other rings that would turn, by how much over their wires, most first
 
@@ -165,11 +165,12 @@ def turns_about_wires(
     rest.
     Otherwise a ring turns where its moment about its wire's centre line,
     M = (m + w z x f) . y (m about the contact, w the wire's radius, y along
-    the wire, z from the wire to what holds it), is more than its force |f|
-    acting at the wire's far side, |f| w: no contact on that wire carries it.
-    Less, its contact rocks on the wire's section (the paper-towel holder's
-    eye rings: 1.1 mm of 4.5), and a moment under 1 % of the weight at w is
-    the rounding of a ring that carries nothing."""
+    the wire, z from the wire to what holds it), is more than |f| w: its force
+    would pass outside the wire (M / |f| from the centre line), where no
+    contact on that wire can act. Within, its contact rocks on the wire's
+    section (the paper-towel holder's eye rings: 1.1 mm of 4.5), and a moment
+    under 1 % of the weight at w is the rounding of a ring that carries
+    nothing."""
     if freed.imbalance <= slack:
         return ()
     frames = model.part_frames(x)
@@ -386,8 +387,8 @@ def _turn_diagnostic(model: Model, turn: Turn) -> Diagnostic:
     return error(
         "E513",
         f"not at rest: `{turn.ring}` would turn about its own wire in `{turn.hook}`: held still it "
-        f"carries {turn.moment:.0f} N mm about the wire, as if its force acted {turn.lever_mm:.0f} mm "
-        f"beside the contact (its wire is {2 * turn.wire_mm:g} mm thick){also}",
+        f"carries {turn.moment:.3g} N mm about the wire, as if its force passed {turn.lever_mm:.3g} mm "
+        f"from the wire's centre line, outside the wire ({turn.wire_mm:g} mm in radius){also}",
         model.joints[turn.joint].connection.span,
         "the model keeps this ring's contact on its inner line, as the reference does; a real ring turns "
         "in the hook until what hangs from it pulls in line. Use a part whose ring says `spin: true` "

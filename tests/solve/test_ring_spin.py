@@ -234,13 +234,13 @@ def test_a_welded_ring_held_up_a_hook_would_turn_about_its_wire(tmp_path: Path) 
     the line from the contact through its wire's centre line, 345.75 mm (the
     ring's arc radius) from that line, 20 degrees from the vertical: about the
     wire the contact carries M = 2.070 x 345.75 sin 20 = 2.070 x 118.25 =
-    244.8 N mm, as if its force acted 118.25 mm beside it, where touching
-    wires carry at most |f| w = 2.070 x 11.5 = 23.8 N mm (the force at the
-    wire's far side). The real hoop turns: E513, not at rest, whose numbers
-    are those (0.5 mm, 1 N mm: the mesh's centre of mass lies off the ring's
-    ideal centre by less than that). Held 1 degree up: 345.75 sin 1 = 6.03 mm
-    beside the contact, within the 11.5 mm wire, where the contact rocks on
-    it: solved."""
+    244.8 N mm, as if its force passed 118.25 mm from the wire's centre line,
+    where touching wires carry at most |f| w = 2.070 x 11.5 = 23.8 N mm (the
+    force on the wire's surface). The real hoop turns: E513, not at rest,
+    whose numbers are those (0.5 mm, 1 N mm: the mesh's centre of mass lies
+    off the ring's ideal centre by less than that). Held 1 degree up: 345.75
+    sin 1 = 6.03 mm from the centre line, within the wire's 11.5 mm radius,
+    where the contact rocks on it: solved."""
     result = hoop_on_a_held_hook(tmp_path, "HulaHoop", 140)
     assert result.status == "not_at_rest"
     (turn,) = result.solution.falls
