@@ -603,12 +603,15 @@ def tilt_jam_deg(loop: Primitive, rod: Primitive) -> float | None:
 
 
 def grips(loop: Primitive, rod: Primitive) -> bool:
-    """Whether a hook or ring fits round a rod so snugly that it cannot tilt
-    along it at all (its inside no wider than the rod: a wire hook bent open
-    round it, N416; `tilt_jam_deg` has no jam there)."""
-    if rod.kind != "rod" or loop.kind not in LOOPS or loop.flags.get("centerline"):
+    """Whether a hook or ring fits round a rod or tube so snugly that it holds
+    it all round (its inside no wider than the rod: a wire hook bent open
+    round it, N416): it cannot tilt along it (`tilt_jam_deg` has no jam
+    there), and no side of it can lift off (`solve.falls`: a small S-hook on
+    a 20 mm broom handle holds it at the root of its arc as well as at its
+    lowest point, the handle filling the arc)."""
+    if rod.kind not in ("rod", "tube") or loop.kind not in LOOPS or loop.flags.get("centerline"):
         return False
-    return opening(loop) <= across(rod)
+    return rod.variant != "TubeCtl" and opening(loop) <= across(rod)  # not threaded through its core
 
 
 def ring_spin_stop_deg(ring: Primitive, hook: Primitive) -> float | None:

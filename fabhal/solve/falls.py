@@ -17,6 +17,7 @@ from fabhal.diagnostics import Diagnostic, error
 from fabhal.kinematics.frames import Array
 from fabhal.kinematics.statics import MOMENT_ARM_MM, Wrenches, pressing
 from fabhal.model import Joint, Model, Side, threaded
+from fabhal.primitives import grips
 from fabhal.solve.forces import WELDED_RINGS, WeldedRing, point_contacts, weight_newtons
 from fabhal.solve.steps import FRICTION, FRICTION_AGREEMENT
 
@@ -214,9 +215,16 @@ def _presses_only(joint: Joint) -> bool:
     """Whether a connection's parts can only press on each other: a hook, ring
     or rod resting on another, not held (a clip's grip, `fixed`, standing on a
     floor: those carry either way, or are judged as standing), not a sleeve
-    threaded on a rod (it holds it all round)."""
+    threaded on a rod nor a hook bent open round it (`primitives.grips`: each
+    holds it all round)."""
     kinds = {joint.a.primitive.kind, joint.b.primitive.kind}
-    return not joint.held and threaded(joint) is None and kinds <= {"hook", "hole", "rod", "tube", "edge"}
+    gripped = grips(joint.a.primitive, joint.b.primitive) or grips(joint.b.primitive, joint.a.primitive)
+    return (
+        not joint.held
+        and threaded(joint) is None
+        and not gripped
+        and kinds <= {"hook", "hole", "rod", "tube", "edge"}
+    )
 
 
 def topples(model: Model, x: Array, wrenches: Wrenches, at_bound: set[int]) -> tuple[Topple, ...]:

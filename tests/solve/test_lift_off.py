@@ -77,3 +77,38 @@ target roll at (800, 127, 2000)
     errors = [d for d in result.diagnostics if d.is_error]
     assert [d.code for d in errors] == ["E508"]
     assert errors[0].message.startswith("`roll` is ") and "inside `rod`" in errors[0].message
+
+
+# a broom handle (a tube 20 mm across) hung level from two small S-hooks, whose lower
+# arcs are 19.2 mm inside: bent open round it, they grip it
+BROOM_ON_TWO_SMALL_S_HOOKS = """\
+environment c1 = CeilingHook() at (-150, 0, 1500)
+environment c2 = CeilingHook() at (150, 0, 1500)
+s1 = DoubleHook()
+s2 = DoubleHook()
+broom = BroomRod()
+connect s1.hook2 -- c1.hook
+connect s2.hook2 -- c2.hook
+connect s1.hook1 -- broom.tube
+connect s2.hook1 -- broom.tube
+target broom.tube at (0, 0, 1383.2) rot (0, 90, 0)
+"""
+
+
+def test_a_hook_bent_open_round_a_handle_holds_it_all_round(tmp_path: Path) -> None:
+    """Hand calculation (z up, centre lines, as the hoop's in test_ring_spin):
+    each ceiling hook's arc centre is at 1500 - 61.5 = 1438.5, its wire's
+    lowest point 25 below (1413.5); the S-hook's upper arc rests on it, its
+    centre line 2.5 + 2 higher (1418.0), its centre 11.6 below that (1406.4),
+    its lower arc's centre 23.2 lower (1383.2). The handle, 20 mm across,
+    fills that arc (19.2 mm inside): its axis lies within 0.4 mm of the arc's
+    centre wherever along the arc the solver puts the contact, and it hangs
+    level there (1 mm: the 0.4 and the contacts' give; 0.5 degrees). Step 1
+    leaves the contact at the arc's root (theta 0), where its normal points
+    sideways: read as a contact that only presses, the S-hooks had to pull the
+    handle (E512, falls_apart from every start). A hook bent open round what
+    it holds grips it all round (`primitives.grips`), as a sleeve does: solved."""
+    result = solve_text(tmp_path, BROOM_ON_TWO_SMALL_S_HOOKS)
+    assert result.status == "solved", [d.message for d in result.diagnostics]
+    position_mm, rotation_deg = result.solution.target_errors()
+    assert position_mm < 1.0 and rotation_deg < 0.5
