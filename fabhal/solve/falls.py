@@ -149,22 +149,13 @@ def lifts_off(model: Model, x: Array, wrenches: Wrenches, masses: Array) -> tupl
 
 
 def turns_about_wires(
-    model: Model,
-    x: Array,
-    rings: list[WeldedRing],
-    wrenches: Wrenches,
-    freed: Wrenches,
-    slack: float,
-    newtons: float,
+    model: Model, x: Array, rings: list[WeldedRing], wrenches: Wrenches, newtons: float
 ) -> tuple[Turn, ...]:
-    """The welded rings (`forces.welded_rings`) that would turn about their wires.
-    `wrenches`: the statics as the model has it; `freed`: the same with each
-    ring's turn about its wire left free (`forces.about_the_wire`), both with
-    `slack` (N), the imbalance a state at rest keeps (a thousandth of the
-    weight, `newtons`). Where the freed statics balance every part within it,
-    some split of the load needs no ring to carry a moment about its wire: at
-    rest.
-    Otherwise a ring turns where its moment about its wire's centre line,
+    """The welded rings (`forces.welded_rings`) that would turn about their
+    wires in `wrenches`, the statics as the model has it (the assembly weighing
+    `newtons`): in a loop these are one split of the load among many, so the
+    caller confirms that no split needs the moments (`solve._turning_rings`).
+    A ring turns where its moment about its wire's centre line,
     M = (m + w z x f) . y (m about the contact, w the wire's radius, y along
     the wire, z from the wire to what holds it), is more than |f| w: its force
     would pass outside the wire (M / |f| from the centre line), where no
@@ -172,8 +163,6 @@ def turns_about_wires(
     section (the paper-towel holder's eye rings: 1.1 mm of 4.5), and a moment
     under 1 % of the weight at w is the rounding of a ring that carries
     nothing."""
-    if freed.imbalance <= slack:
-        return ()
     frames = model.part_frames(x)
     turns = []
     for ring in rings:
