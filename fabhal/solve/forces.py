@@ -66,6 +66,9 @@ def point_contacts(model: Model) -> Array:
     )
 
 
+WELDED_RINGS = ("Ring", "RingFlex")  # hole variants whose contact stays on the inner line
+
+
 @dataclass(frozen=True)
 class WeldedRing:
     """A ring held by a hook whose contact the model keeps on the ring's inner
@@ -87,9 +90,6 @@ def welded_rings(model: Model) -> list[WeldedRing]:
         for ring, hook in ((joint.a, joint.b), (joint.b, joint.a))
         if ring.primitive.variant in WELDED_RINGS and hook.primitive.kind == "hook"
     ]
-
-
-WELDED_RINGS = ("Ring", "RingFlex")  # hole variants whose contact stays on the inner line
 
 
 def about_the_wire(model: Model, x: Array, rings: list[WeldedRing]) -> tuple[Array, Array, Array]:
