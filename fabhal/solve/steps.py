@@ -36,7 +36,7 @@ from fabhal.optimize import (
     tangent_curvature,
 )
 from fabhal.solve import target as target_mod
-from fabhal.solve.contacts import Pairs, passing_through, penetration
+from fabhal.solve.contacts import Pairs, passing_through, penetration, wires_crossed
 from fabhal.solve.energy import Energy
 from fabhal.solve.forces import Slide, slide_dofs, weight_newtons
 from fabhal.solve.spacing import Spacing, spacing_jacobian, spacing_values, turn_rows
@@ -254,6 +254,8 @@ class Fit:
 
 # in step 1's refit, a millimetre inside an obstacle costs like this many of target error
 PENETRATION_WEIGHT = 100.0
+# step 1's refits at most, while each one's answer has parts crossing it did not keep apart
+UNTANGLE_ROUNDS = 3
 
 
 def fit_target(
@@ -308,18 +310,27 @@ def fit_target(
     def out_of_the_world(result: Fit) -> Fit:
         """The fit again from where it ended, now kept out of the environment,
         when it passes through it (fitted without: contact residuals switch on
-        and off, and from the start they lead the fit astray). Kept only if its
-        loops are closed and spacings kept (`fit`'s cost is finite)."""
+        and off, and from the start they lead the fit astray), and two movable
+        parts kept apart by their hulls where walls or wires cross
+        (`passing_through`, `wires_crossed`); again while that fit's answer has
+        parts crossing that it did not keep apart (UNTANGLE_ROUNDS). Each kept
+        only if its loops are closed and spacings kept (`fit`'s cost is finite)."""
         if not pairs or result.late or problem.out_of_time():
             return result
-        x = problem.full(result.v)
-        tangled = passing_through(model, x, pairs)
-        if not tangled and not penetration(model, x, pairs)[0].any():
+        v, tangled = result.v, frozenset[frozenset[int]]()
+        for refits in range(UNTANGLE_ROUNDS):
+            x = problem.full(v)
+            crossed = passing_through(model, x, pairs) | wires_crossed(model, x, pairs)
+            if crossed <= tangled and (refits or not penetration(model, x, pairs)[0].any()):
+                break
+            tangled |= crossed
+            kept_apart = (pairs, pairs.hulls(tangled)) if tangled else (pairs,)
+            refitted, cost = fit(v, evaluations, kept_apart)
+            if not np.isfinite(cost):
+                break  # not at the price of an open loop
+            v = refitted
+        if v is result.v:
             return result
-        kept_apart = (pairs, pairs.hulls(tangled)) if tangled else (pairs,)
-        v, cost = fit(result.v, evaluations, kept_apart)
-        if not np.isfinite(cost):
-            return result  # not at the price of an open loop
         return replace(result, v=v, untangled=tangled - passing_through(model, problem.full(v), pairs))
 
     probes: list[tuple[float, Array]] = []
