@@ -87,6 +87,7 @@ from fabhal.solve.steps import (
     mm_per_unit,
     potential,
     settle,
+    taken_apart,
     unbalanced_force,
     with_friction,
     with_target_pull,
@@ -495,7 +496,7 @@ def _solve_once(model: Model, options: SolveOptions, loop_start: Array | None) -
     step1, starts = step_one(model, options.seed, loop_start, options.deadline)
     pairs = contact_pairs(model, options.report)
     if options.start is not None and len(options.start) == len(model.variables):
-        fit = _continued(step1, options.start)
+        fit = _continued(step1, goal, options.start, pairs)
     else:
         options.report("step 1: bringing the target to its frame")
         fit = fit_target(step1, goal, starts, pairs)
@@ -695,10 +696,11 @@ def _crowded(step1: Problem, v: Array, closed: Array) -> Diagnostic | None:
     )
 
 
-def _continued(step1: Problem, start: Array) -> Fit:
-    """A given configuration as step 1's answer: its free DoFs, within their ranges."""
+def _continued(step1: Problem, goal: target_mod.TargetGoal, start: Array, pairs: Pairs) -> Fit:
+    """A given configuration as step 1's answer: its free DoFs, within their
+    ranges, what crosses in it taken apart (`steps.taken_apart`)."""
     low, high = step1.bounds()
-    return Fit(np.clip(start[step1.free], low, high), late=False)
+    return taken_apart(step1, goal, np.clip(start[step1.free], low, high), pairs)
 
 
 def _aimed(

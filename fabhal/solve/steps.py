@@ -252,6 +252,8 @@ class Fit:
     untangled: frozenset[frozenset[int]] = frozenset()
 
 
+Rows = Callable[[Array], tuple[Array, Array]]  # residuals and their Jacobian over the free DoFs
+
 # in step 1's refit, a millimetre inside an obstacle costs like this many of target error
 PENETRATION_WEIGHT = 100.0
 # step 1's refits at most, while each one's answer has parts crossing it did not keep apart
@@ -264,8 +266,11 @@ def fit_target(
     starts: Iterable[Array],
     pairs: Pairs | None = None,
     evaluations: int = FIT_EVALUATIONS,
+    objective: Rows | None = None,
 ) -> Fit:
     """Best free DoFs over the starts (taken from `starts` only as needed).
+    `objective`: rows to least-square instead of the target's residual
+    (`taken_apart`).
 
     Every start is fitted for FIT_PROBE_EVALUATIONS first, then the most
     promising ones (FINISHED_FITS at most) to FIT_EVALUATIONS, best first, until
@@ -284,6 +289,8 @@ def fit_target(
     model = problem.model
 
     def residual_and_jacobian(v: Array) -> tuple[Array, Array]:
+        if objective is not None:
+            return objective(v)
         fwd = model.forward(problem.full(v), with_twists=True)
         r = target_mod.residual(goal, target_mod.achieved(goal, fwd.frames))
         return r, target_mod.residual_jacobian(goal, model, fwd)[:, problem.free]
@@ -364,6 +371,21 @@ def fit_target(
     finished.sort(key=lambda result: result[0])
     (cost, v), others = finished[0], [u for c, u in finished[1:] if _worth_settling(c, finished[0][0])]
     return out_of_the_world(Fit(v, False, None if cost < GOOD_FIT**2 or not others else others[0]))
+
+
+def taken_apart(problem: Problem, goal: target_mod.TargetGoal, v: Array, pairs: Pairs) -> Fit:
+    """A given configuration (a neighbouring member's: `fabhal search --smooth`)
+    as step 1's answer, with what crosses in it taken apart as step 1's refit
+    does (`fit_target`), each DoF moved as little as it can be (millimetres,
+    a degree as a millimetre): the neighbour's configuration given to a
+    shorter chain had two of its rings 3 mm inside each other from the start,
+    where a settle leaves them. As it is where nothing crosses."""
+    scale = problem.scale
+
+    def moves(u: Array) -> tuple[Array, Array]:
+        return scale * (u - v), np.diag(scale)
+
+    return fit_target(problem, goal, [v], pairs, objective=moves)
 
 
 def _worth_settling(cost: float, best: float) -> bool:

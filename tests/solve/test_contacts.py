@@ -21,7 +21,7 @@ from fabhal.solve import target as target_mod
 from fabhal.solve.contacts import Contact, Pairs, _distances, _kinds, contact_pairs, wires_crossed
 from fabhal.solve.falls import Turn
 from fabhal.solve.forces import weight_newtons
-from fabhal.solve.steps import fit_target
+from fabhal.solve.steps import fit_target, taken_apart
 from tests.conftest import REPO
 from tests.test_gallery import solved as gallery_solved
 
@@ -989,3 +989,23 @@ def test_step_one_leaves_no_wires_crossed(tmp_path: Path) -> None:
     assert wires_crossed(model, start, pairs)
     fit = fit_target(step1, target_mod.goal_of(model), [start[step1.free]], pairs)
     assert not wires_crossed(model, step1.full(fit.v), pairs)
+
+
+def test_a_given_start_is_taken_apart_where_it_crosses_and_kept_where_not(tmp_path: Path) -> None:
+    """A configuration given as the answer of step 1 (`fabhal search --smooth`
+    gives a member its neighbour's) is taken apart where it crosses, moving as
+    little as it can, and kept exactly where nothing crosses: given to a
+    shorter chain, a neighbour's configuration had two rings 3 mm inside each
+    other from the start, where a settle leaves them (E508). The start above,
+    the toss ring's wire through the feeder's ring: apart, and no wire
+    crossed; the answer it is taken to (nothing crosses there): unchanged, to
+    the bit."""
+    model = api.check(_program(tmp_path, FEEDER_ON_A_RING_AND_TWO_S_HOOKS)).model
+    assert model is not None
+    step1, _ = step_one(model, 0, None, float("inf"))
+    pairs = contact_pairs(model)
+    goal = target_mod.goal_of(model)
+    start = np.array(CROSSED_START)[step1.free]
+    apart = taken_apart(step1, goal, start, pairs).v
+    assert not wires_crossed(model, step1.full(apart), pairs)
+    np.testing.assert_array_equal(taken_apart(step1, goal, apart, pairs).v, apart)
