@@ -202,8 +202,8 @@ def test_when_the_check_rejects_every_member_nothing_is_ranked(tmp_path: Path) -
 
 
 def test_smooth_lets_a_member_keep_its_neighbours_settings(tmp_path: Path) -> None:
-    """Clip light, ring M, n = 4, extensions 20.565 and 22.85 mm. Solved alone
-    the two hang 133 and 157 mm from the target: the second member's own solve
+    """Clip light, ring M, n = 4, extensions 31.99 and 34.275 mm. Solved alone
+    the two hang 77 and 188 mm from the target: the second member's own solve
     settles with the clip elsewhere on the bar. Lengthening each of the 4
     turnbuckles by 2.285 mm lowers the chain by 9.14 mm, so with the first
     member's settings kept the light moves at most about that far (triangle
@@ -212,7 +212,7 @@ def test_smooth_lets_a_member_keep_its_neighbours_settings(tmp_path: Path) -> No
     from the first's result and keeps it because it hangs nearer."""
     text = (REPO / "programs" / "clip_light_family.fhl").read_text()
     text = text.replace(
-        "param extension in linspace(0, 45.7, 21) = 43.415", "param extension in [20.565, 22.85]"
+        "param extension in linspace(0, 45.7, 21) = 43.415", "param extension in [31.99, 34.275]"
     )
     program = tmp_path / "two_members.fhl"
     program.write_text(text)
@@ -224,7 +224,7 @@ def test_smooth_lets_a_member_keep_its_neighbours_settings(tmp_path: Path) -> No
     first, second = smooth
     assert first == replace(alone[0], time_s=first.time_s)  # its neighbour hangs farther: not tried
     assert alone[1].position_mm - alone[0].position_mm > 14.14  # the jump, solved alone
-    assert second.reached_from == "ring=RingM n=4 extension=20.565"
+    assert second.reached_from == "ring=RingM n=4 extension=31.99"
     assert second.position_mm < alone[1].position_mm
     assert abs(second.position_mm - first.position_mm) <= 4 * 2.285 + 5.0
     assert second.aimed is not None and second.aimed.startswith("aimed:")  # the settings to build
