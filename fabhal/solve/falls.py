@@ -18,7 +18,7 @@ from fabhal.kinematics.frames import Array
 from fabhal.kinematics.statics import MOMENT_ARM_MM, Wrenches, pressing
 from fabhal.model import Joint, Model, Side, threaded
 from fabhal.primitives import grips
-from fabhal.solve.forces import WELDED_RINGS, WeldedRing, point_contacts, weight_newtons
+from fabhal.solve.forces import WeldedRing, point_contacts, weight_newtons, welded_sides
 from fabhal.solve.steps import FRICTION, FRICTION_AGREEMENT
 
 # a standing object falls over when its floor would have to push beyond the edge
@@ -358,7 +358,7 @@ def _lift_off_diagnostic(model: Model, lift: LiftOff) -> Diagnostic:
         "hung this way the weight pulls the parts apart (a hook from the inside of a ring's top): hang it "
         "where what holds it is beneath it, or turn the connection the other way (`flip`)"
     )
-    if _welded_ring_on_a_hook(joint):
+    if welded_sides(joint):
         help_text += (
             "; a ring here keeps its contact on its inner line: where a hook should hold its wire from "
             "above (a hoop hung level), use a part whose ring says `spin: true` (the library's "
@@ -390,14 +390,6 @@ def _turn_diagnostic(model: Model, turn: Turn) -> Diagnostic:
         "the model keeps this ring's contact on its inner line, as the reference does; a real ring turns "
         "in the hook until what hangs from it pulls in line. Use a part whose ring says `spin: true` "
         "(docs/primitives.md), or hang the ring so that what it carries pulls in its plane",
-    )
-
-
-def _welded_ring_on_a_hook(joint: Joint) -> bool:
-    """A ring without `spin` (its contact kept on its inner line) held by a hook."""
-    return any(
-        side.primitive.variant in WELDED_RINGS and other.primitive.kind == "hook"
-        for side, other in ((joint.a, joint.b), (joint.b, joint.a))
     )
 
 

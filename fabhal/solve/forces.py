@@ -14,7 +14,7 @@ import numpy as np
 
 from fabhal.kinematics.frames import Array, angular_velocities
 from fabhal.kinematics.statics import Wrenches, joint_wrenches
-from fabhal.model import Model, Side
+from fabhal.model import Joint, Model, Side
 
 GRAVITY = 9.81  # m/s2
 SLIDING_KINDS = ("rod", "tube", "edge")
@@ -80,6 +80,15 @@ class WeldedRing:
     hook: Side
 
 
+def welded_sides(joint: Joint) -> list[tuple[Side, Side]]:
+    """(ring, hook) where a connection is a ring without `spin` held by a hook."""
+    return [
+        (ring, hook)
+        for ring, hook in ((joint.a, joint.b), (joint.b, joint.a))
+        if ring.primitive.variant in WELDED_RINGS and hook.primitive.kind == "hook"
+    ]
+
+
 def welded_rings(model: Model) -> list[WeldedRing]:
     """The rings without `spin` held by a hook, not taped or clipped there
     (`fixed`: the tape carries what the contact does not)."""
@@ -87,8 +96,7 @@ def welded_rings(model: Model) -> list[WeldedRing]:
         WeldedRing(joint.index, ring, hook)
         for joint in model.joints
         if not joint.held
-        for ring, hook in ((joint.a, joint.b), (joint.b, joint.a))
-        if ring.primitive.variant in WELDED_RINGS and hook.primitive.kind == "hook"
+        for ring, hook in welded_sides(joint)
     ]
 
 

@@ -42,7 +42,7 @@ from fabhal.model import Model
 from fabhal.optimize import least_squares_objective, minimize
 from fabhal.solve import target as target_mod
 from fabhal.solve.energy import Energy
-from fabhal.solve.steps import GOOD_FIT
+from fabhal.solve.steps import GOOD_FIT, Rows
 
 HANG_ITERATIONS = 300  # of the tree settling under gravity (the hoop's 12 chains: 67)
 REACH_EVALUATIONS = 200  # of each least-squares stage
@@ -143,9 +143,6 @@ def _position_gap(model: Model, x: Array, *, loop: int) -> float:
     """How far apart the closing connection's two sides are (mm): how the chain
     is turned there the least squares mends."""
     return float(np.linalg.norm(model.closure_errors(x)[loop, :3, 3]))
-
-
-Rows = Callable[[Array], tuple[Array, Array]]
 
 
 def _least_squares(rows: Rows, v: Array, low: Array, high: Array, scale: Array, deadline: float) -> Array:
