@@ -35,6 +35,7 @@ from fabhal.primitives import (
     grips,
     is_flex_angle,
     jam_of,
+    make_primitive,
     turning_to_the_jam,
     yaw_jam_between,
 )
@@ -763,11 +764,12 @@ def build_model(program: FlatProgram) -> Model:
     environments = [i for i, part in enumerate(by_name.parts) if part.environment]
     reached = [by_name.placed_sides(edge)[1].part for edge in by_name.tree]
     order = [*environments, *reached, *by_name.unplaced]
-    return _assemble(program, tuple(by_name.parts[i] for i in order))
+    return _assemble(program, tuple(by_name.parts[i] for i in order), loops=bool(by_name.closures))
 
 
-def _assemble(program: FlatProgram, parts: tuple[PartInstance, ...]) -> Model:
-    """The model of `program` with its parts in this order."""
+def _assemble(program: FlatProgram, parts: tuple[PartInstance, ...], loops: bool = True) -> Model:
+    """The model of `program` with its parts in this order; without `loops`,
+    the spinning rings' twists left out (`_twisting`)."""
     index = {p.name: i for i, p in enumerate(parts)}
     variables: list[DofVariable] = []
     joints: list[Joint] = []
@@ -777,6 +779,7 @@ def _assemble(program: FlatProgram, parts: tuple[PartInstance, ...]) -> Model:
             part = index[end.part]
             primitive = parts[part].spec.primitive(end.primitive)
             assert primitive is not None, end  # elaboration resolved every endpoint
+            primitive = _twisting(primitive, connection, label, loops)
             start = len(variables)
             for dof in primitive.dofs:
                 variables.append(DofVariable(f"{end.part}.{end.primitive}.{dof.name}", dof, j, label))
@@ -829,6 +832,27 @@ def _assemble(program: FlatProgram, parts: tuple[PartInstance, ...]) -> Model:
         standing,
         written=written,
         turn_limits=together,
+    )
+
+
+def _twisting(primitive: Primitive, connection: Connection, label: str, loops: bool) -> Primitive:
+    """A spinning ring (a toss ring's round wire: `spin` and `flex`) as it
+    connects: without loops, and unless the program sets it, without its twist
+    about the line of its contact (the reference's ring). There the twist
+    carries no load: at rest the line of a contact is the line of the load it
+    carries, the weight of what hangs below, vertical, and gravity has no
+    moment about the vertical; so it only turns what hangs below about the
+    vertical, and cost the clip lights a third more time (four rings, eight
+    twists). In a loop it is what lets a chain swing: without it, a ring
+    spun on a ceiling hook held a broom hung on two chains 48 mm out of
+    plumb (tests/solve/test_ring_spin.py)."""
+    if loops or primitive.variant != "RingFlexSpin":
+        return primitive
+    if any(s.side == label and s.dof == "phi" for s in connection.settings):
+        return primitive
+    flags = {**primitive.flags, "flex": False}
+    return make_primitive(
+        primitive.name, primitive.kind, primitive.params, flags, primitive.position, primitive.rotation
     )
 
 

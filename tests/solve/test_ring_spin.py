@@ -270,3 +270,68 @@ def test_a_ring_that_may_turn_about_its_wire_hangs_under_it(tmp_path: Path) -> N
     centre = hoop[:3, :3] @ mass_properties(solution.model.parts[ring.part].spec).center_of_mass + hoop[:3, 3]
     across = np.cross(contact[:3, 1], [0.0, 0.0, 1.0])  # horizontal, square to the wire
     assert abs(float((centre - wire) @ across)) / np.linalg.norm(across) < 0.5
+
+
+# a broom handle hung level on two chains, a toss ring and a small S-hook each, from
+# two ceiling hooks 300 mm apart; the S-hooks written 300 mm apart on the 387 mm handle
+# (t = 0.5 -+ 150 / 387), under the hooks
+TWO_CHAINS = """
+environment c1 = CeilingHook() at (-150, 0, 1500)
+environment c2 = CeilingHook() at (150, 0, 1500)
+r1 = RingM()
+r2 = RingM()
+s1 = DoubleHook()
+s2 = DoubleHook()
+broom = BroomRod()
+connect r1.ring -- c1.hook
+connect r2.ring -- c2.hook
+connect s1.hook2 -- r1.ring
+connect s2.hook2 -- r2.ring
+connect s1.hook1 -- broom.tube set (broom.tube.t: 0.112403)
+connect s2.hook1 -- broom.tube set (broom.tube.t: 0.887597)
+target broom.tube at (0, 0, 1284) rot (0, 90, 0)
+"""
+
+
+def test_a_broom_on_two_chains_of_toss_rings_hangs_plumb_and_level(tmp_path: Path) -> None:
+    """Each chain hangs straight down from its hook (z up): the ceiling hook's arc
+    centre 1500 - 61.5 = 1438.5, its inner side (arc radius 25, wire 2.5) at
+    1438.5 - 22.5 = 1416.0, where the ring's top hangs; the ring (arc radius 53.3,
+    wire 3.3) 100 mm inside, its inside bottom at 1316.0, where the S-hook's upper
+    arc hangs (arc radius 11.6, wire 2: its centre 9.6 lower, 1306.4); its lower
+    arc's centre 23.2 lower, 1283.2, where the handle (outer radius 10) lies in it:
+    its axis there (the hook, 19.2 mm inside, is bent open round the 20 mm handle,
+    so within 0.4 of that), 1283.2 mm, level, every part in the plane y = 0.
+    Before toss rings could twist about their contact (they turned only about
+    their own wire), each ring's contact held a moment about the vertical it
+    cannot, and the loop came back `solved` 102 mm above that, its S-hooks 34 mm
+    out of the plane either side. Tolerances: 1 mm (the bent-open hook's 0.4 and
+    the contacts' give), 0.5 degrees, 0.5 mm out of the plane (measured: 0.0)."""
+    result = solve_text(tmp_path, TWO_CHAINS)
+    assert result.status == "solved", [d.message for d in result.diagnostics]
+    solution = result.solution
+    axis = solution.target_frame()
+    assert abs(axis[2, 3] - 1283.2) < 1.0
+    assert solution.target_errors()[1] < 0.5  # level
+    assert np.abs(solution.frames[:, 1, 3]).max() < 0.5  # every part in the plane of the hooks
+    for name, x in (("s1", -150.0), ("s2", 150.0)):
+        frame = solution.frames[[p.name for p in solution.model.parts].index(name)]
+        assert abs(frame[0, 3] - x) < 0.5  # plumb under its hook
+
+
+def test_a_toss_ring_twists_about_its_contact_only_in_a_loop(tmp_path: Path) -> None:
+    """In a loop a toss ring's contact turns about its line (its `phi`: two round
+    wires crossing), each within the jam of what holds it; without loops that
+    twist only turns what hangs below about the vertical (the line of a contact
+    at rest), so it is left out and a chain of toss rings keeps the reference's
+    DoFs (the clip lights: theta and spin on each side of each ring)."""
+    (tmp_path / "two.fhl").write_text(TWO_CHAINS)
+    looped = api.check(tmp_path / "two.fhl").model
+    assert looped is not None and looped.closures
+    twists = [v for v in looped.variables if v.name.startswith(("r1.", "r2.")) and v.name.endswith(".phi")]
+    assert len(twists) == 4  # each ring where it hangs and where it holds
+    assert all(v.dof.low < 90.0 < v.dof.high for v in twists)
+    chain = api.check(REPO / "programs" / "clip_light_m.fhl").model
+    assert chain is not None and not chain.closures
+    rings = [v.name.rsplit(".", 1)[1] for v in chain.variables if ".r[" in v.name]
+    assert rings and set(rings) == {"theta", "spin"}
