@@ -601,6 +601,12 @@ def _solve_once(model: Model, options: SolveOptions, loop_start: Array | None) -
                 # it is turned as asked and rests beside or below it for what W506 or W511 says
                 notes = [n for n in notes if n.code != "W505"]
             notes.append(aside)
+    if not reach.out_of_reach(target_mod.errors(goal, target_mod.achieved(goal, frames))):
+        # it hangs within reach of the request: step 1 (gravity off) missed a reach the parts
+        # have, and W505's "they reach only so far" would be false (a basket on a ring and an
+        # S-hook from a ceiling hook, aimed to 0.0 mm, was said to stay 28 mm away)
+        notes = [n for n in notes if n.code != "W505"]
+        out_of_reach_mm = out_of_reach_deg = 0.0
     looked = settled.pairs or pairs  # the contact as the settle ended with it
     through = crossings(model, x, looked)
     overlaps = _overlaps(model, x, looked, masses)
@@ -1285,7 +1291,7 @@ def _pick(
         Severity.NOTE,
         "N505",
         f"starts disagree: from two starts the hack settles {apart:.0f} mm and {turned:.0f} degrees apart; "
-        f"reported is one of them because {why}",
+        f"the solver went on from one of them because {why}",
         model.program.targets[0].span,
         "how the parts are first hung decides where a builder's hack comes to rest: hang them as the "
         "result shows (docs/errors.md, N505, gives the rule)",
