@@ -843,9 +843,10 @@ def _twisting(primitive: Primitive, connection: Connection, label: str, loops: b
     carries, the weight of what hangs below, vertical, and gravity has no
     moment about the vertical; so it only turns what hangs below about the
     vertical, and cost the clip lights a third more time (four rings, eight
-    twists). In a loop it is what lets a chain swing: without it, a ring
-    spun on a ceiling hook held a broom hung on two chains 48 mm out of
-    plumb (tests/solve/test_ring_spin.py)."""
+    twists). In a loop it is what lets a chain swing: without it, the rings
+    on two ceiling hooks held a broom hung on two chains 102 mm above where
+    the chains end, its S-hooks 34 mm out of plumb
+    (tests/solve/test_ring_spin.py)."""
     if loops or primitive.variant != "RingFlexSpin":
         return primitive
     if any(s.side == label and s.dof == "phi" for s in connection.settings):
