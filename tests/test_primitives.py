@@ -50,7 +50,10 @@ REFERENCE_ROTATIONS = {("Board", "surface2"): (90.0, 0.0, 0.0)}
 # in a hook (`spin`) and twist about their contact (`flex`; stdlib_parts/rings_and_links.fhl
 # says why), compared without them
 TOSS_RINGS = ("RingXS", "RingS", "RingM", "RingL")
-REFERENCE_FLAGS = {(ring, "ring"): {"spin": False, "flex": False} for ring in TOSS_RINGS}
+REFERENCE_FLAGS = {
+    **{(ring, "ring"): {"spin": False, "flex": False} for ring in TOSS_RINGS},
+    ("FlagRod", "rod"): {"centerline": True},  # the reference's stick connects on its axis
+}
 
 
 # primitives the library adds to the reference's parts (stdlib_parts/ says why at each)
@@ -163,13 +166,14 @@ def test_what_hangs_on_a_centre_line_tilts_along_it_until_its_wire_jams() -> Non
     connector's y (along the axis at 90) turns b away from the axis, the point
     on the axis staying put. Its range is the jam of the loop on the rod, as on
     a rod's surface: a ceiling hook (inside 25 - 2.5 = 22.5 mm, its wire's
-    radius off its arc's) on the flag stick (6.35 mm) jams at acos(6.35 /
-    22.5) = 73.6 degrees (`tilt_jam_deg`); held square, a hook near the
-    stick's end held it out as a cantilever."""
+    radius off its arc's) on a centre-line rod of 6.35 mm jams at acos(6.35 /
+    22.5) = 73.6 degrees (`tilt_jam_deg`); held square, a hook near a flag
+    stick's end (the reference's, a centre-line rod) held it out as a
+    cantilever."""
     from fabhal.primitives import jam_of
 
-    stick = part("FlagRod").primitive("rod")
-    assert stick is not None and [d.name for d in stick.dofs] == ["t", "spin", "phi"]
+    stick = make_primitive("rod", "rod", {"radius": 6.35, "length": 280.0}, {"centerline": True})
+    assert [d.name for d in stick.dofs] == ["t", "spin", "phi"]
     square, tilted = stick.connector_frames(np.array([[0.4, 0.0, 90.0], [0.4, 0.0, 120.0]]))
     np.testing.assert_allclose(square[:3, 3], tilted[:3, 3], atol=1e-12)
     assert float(square[:3, 1] @ tilted[:3, 1]) == pytest.approx(np.cos(np.radians(30.0)))

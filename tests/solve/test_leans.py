@@ -177,7 +177,7 @@ def test_a_hook_tilts_along_a_steep_rod_until_its_wire_jams(
 
 
 def test_a_stick_hooked_near_its_end_tilts_in_the_hook_to_its_jam(tmp_path: Path) -> None:
-    """A flag stick (a centre-line rod, 280 mm, 6.35 mm radius) hooked by a
+    """A flag stick (a rod, 280 mm, 6.35 mm radius) hooked by a
     ceiling hook 7 mm from its end (written there, so it cannot slide): a hook
     holds it at a point, which carries no moment until the hook's wire jams
     on the stick, at acos(6.35 / (25 - 2.5)) = 73.6 degrees from square. Its

@@ -726,3 +726,33 @@ def test_nothing_rests_on_the_very_tip_of_an_open_hook() -> None:
     for i in solution.at_bound:
         dof = model.variables[i].dof
         assert not (dof.low_open if abs(solution.x[i] - low[i]) < 1e-9 else dof.high_open)
+
+
+def test_a_flag_stick_laid_in_two_hooks_rests_on_its_surface(tmp_path: Path) -> None:
+    """A flag stick (a 12.7 mm dowel) laid across two ceiling hooks 240 mm
+    apart, turned square to it, an S-hook at its middle (z up): the hooks'
+    inside bottoms at 1600 - 61.5 - 22.5 = 1516.0, the stick's axis 6.35 above,
+    1522.35, level; the S-hook's upper arc over the stick's top, 1528.7, its
+    centre 9.6 lower and its frame 11.6 below that: 1507.5. The reference's
+    stick connects on its axis, as a thin cable does, and the hooks' wires lay
+    6.35 mm inside the wood: the stick 6.35 mm low and the S-hook 12.7 mm
+    (measured: 1516.0 and 1494.8). Tolerance 0.5 mm (measured: 0.0)."""
+    result = solve_text(
+        tmp_path,
+        """\
+environment c1 = CeilingHook() at (-120, 0, 1600) rot (0, 0, 90)
+environment c2 = CeilingHook() at (120, 0, 1600) rot (0, 0, 90)
+flag = FlagRod()
+s = DoubleHook()
+connect flag.rod -- c1.hook
+connect flag.rod -- c2.hook
+connect s.hook2 -- flag.rod
+target s at (0, 0, 1507.5) rot (180, 0, 0)
+""",
+    )
+    assert result.status == "solved", [d.message for d in result.diagnostics]
+    solution = result.solution
+    assert solution.target_errors()[0] < 0.5
+    stick = solution.frames[solution.model.part_index("flag")]
+    axis_height = (stick @ np.array([0.0, 0.0, 140.0, 1.0]))[2]  # the rod's middle, on its axis
+    assert abs(axis_height - 1522.35) < 0.5 and abs(stick[2, 2]) < 0.01  # level
