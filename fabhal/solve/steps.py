@@ -326,9 +326,13 @@ def fit_target(
             return result
         v, tangled = result.v, frozenset[frozenset[int]]()
         for refits in range(UNTANGLE_ROUNDS):
+            if problem.out_of_time():
+                break  # each round's fine check costs a hoop on twelve chains 0.25 s
             x = problem.full(v)
             crossed = passing_through(model, x, pairs) | wires_crossed(model, x, pairs)
             if crossed <= tangled and (refits or not penetration(model, x, pairs)[0].any()):
+                break
+            if problem.out_of_time():
                 break
             tangled |= crossed
             kept_apart = (pairs, pairs.hulls(tangled)) if tangled else (pairs,)

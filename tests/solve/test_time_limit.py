@@ -12,9 +12,11 @@ from tests.conftest import REPO
 
 # overshoot allowed past the limit: the stages look at the clock between
 # evaluations and iterations, and one iteration of a 200-DoF model (a step,
-# its line search and the loops' projection) takes up to about 0.1 s here;
-# 0.5 s leaves room for a slow CI machine
-OVERSHOOT_S = 0.5
+# its line search and the loops' projection) takes up to about 0.1 s here, a
+# fine contact check 0.25 s; the hoop below ends 0.1-0.3 s past its limit on
+# the development machine, and once 0.63 s on a loaded CI machine: 1 s
+# (against the 10 s it takes without a limit)
+OVERSHOOT_S = 1.0
 
 
 def hoop_on_chains(path: Path, chains: int = 12, hooks: int = 8) -> Path:
