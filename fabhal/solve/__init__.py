@@ -196,9 +196,6 @@ class Solution:
     # reach it (W505: their lengths fall short or over, which turning a connection over may
     # change, `_aligned_nearer`); 0 where they can, or where only the rotation is out of reach
     out_of_reach_mm: float = 0.0
-    # degrees: the same for the rotation, where a hack with loops cannot turn the target as
-    # asked (W505): how a loop's connection is turned may be why (`_aligned_nearer`)
-    out_of_reach_deg: float = 0.0
     # (part, environment) pairs the result leaves more than OVERLAP_KEPT_MM inside each other (E508)
     in_the_world: tuple[tuple[int, int], ...] = ()
 
@@ -221,7 +218,9 @@ def solve(model: Model, options: SolveOptions, loop_start: Array | None = None) 
     turns it over (`_aligned`); where it wrote it, the error says whether
     turned over it would hang (`_with_flip_advice`). Where one that falls
     apart leans on a stop or lies in the environment, it is turned over
-    before other starts are tried. One that hangs at rest
+    before other starts are tried. One that hangs at rest with loops but with
+    a toss ring twisted on its jam is turned over there, and kept so where it
+    then rests lower (`_untwisted`). One that hangs at rest
     but whose parts cannot reach the requested position is turned over where
     the program leaves that open, and kept so where it then hangs nearer
     (`_aligned_nearer`)."""
@@ -230,7 +229,9 @@ def solve(model: Model, options: SolveOptions, loop_start: Array | None = None) 
     first = _solve_once(model, options, loop_start)
     # without gravity, or from a continued start, one try: the member's own solve makes the others
     one_try = not options.gravity or options.start is not None
-    if first.status == "solved" and (first.out_of_reach_mm or first.out_of_reach_deg) and not one_try:
+    if first.status == "solved" and not one_try and _jammed_rings(model, first):
+        first = _untwisted(model, options, first)
+    if first.status == "solved" and first.out_of_reach_mm > 0.0 and not one_try:
         return _aligned_nearer(model, options, first)
     if first.status in ("solved", "infeasible", "error") or one_try:
         return first
@@ -387,29 +388,20 @@ def _aligned_nearer(model: Model, options: SolveOptions, result: Solution) -> So
     the program leaves open the alignment of a connection that hangs a part
     on the environment (`_suspects`): turned over, the lengths change (an eye
     hook's hook opens up instead of down), and it may hang nearer, as a
-    builder whose basket hangs short and askew turns its eye hook over. Also,
-    in a hack with loops, where it cannot turn the target as asked (W505's
-    rotation): how a loop's connection is turned decides how the loop closes
-    (a toss ring's two ways round one contact are the same ring turned half
-    round its contact's line, yet the default ones closed a basket's loop on
-    two rings only with a ring twisted past its jams, the basket held 12
-    degrees askew). A turn is solved only where a short step 1 (`_fitted`)
-    brings the target nearer the requested position by more than a builder's
-    eye (`reach.REACH_MM`: a chain 400 mm short stays short either way
-    round), or the rotation within reach (`reach.REACH_DEG`). The turned
-    design that hangs at rest nearest the request, where it is nearer than
-    `result` by more than ALIGNED_NEARER_MM, with N507 saying so; else
-    `result`. Not where only the rotation of a hack without loops is out of
-    reach: how the target is held sets that."""
+    builder whose basket hangs short and askew turns its eye hook over. A
+    turn is solved only where a short step 1 (`_fitted_position`) brings the
+    target nearer the requested position by more than a builder's eye
+    (`reach.REACH_MM`): a chain 400 mm short stays short either way round.
+    The turned design that hangs at rest nearest the request, where it is
+    nearer than `result` by more than ALIGNED_NEARER_MM, with N507 saying
+    so; else `result`. Not where only the rotation is out of reach: how the
+    target is held sets that."""
     position, rotation = result.target_errors()
     best: tuple[Connection, Solution] | None = None
     nearest = position + rotation - ALIGNED_NEARER_MM
     for connection in _suspect_connections(model, result, aligned=False):
         turned_model = _turned(model, connection)
-        fitted_mm, fitted_deg = _fitted(turned_model, options)
-        nearer_mm = result.out_of_reach_mm and fitted_mm < result.out_of_reach_mm - reach.REACH_MM
-        nearer_deg = result.out_of_reach_deg and fitted_deg <= reach.REACH_DEG  # within reach turned over
-        if not (nearer_mm or nearer_deg):
+        if _fitted_position(turned_model, options) >= result.out_of_reach_mm - reach.REACH_MM:
             continue
         turned = _solved_turned(turned_model, options, connection, "it hangs out of the request's reach")
         if turned is None:
@@ -424,15 +416,68 @@ def _aligned_nearer(model: Model, options: SolveOptions, result: Solution) -> So
     return replace(turned, diagnostics=(_aligned_note(connection, turned, failure), *turned.diagnostics))
 
 
-def _fitted(model: Model, options: SolveOptions) -> tuple[float, float]:
-    """How far (mm, degrees) a short step 1 (its first start,
-    reach.REACH_EVALUATIONS) brings the target from its requested frame: a
-    screen (a full step 1 cost the chain of 100 S-hooks 0.46 s, this one 0.16)."""
+def _fitted_position(model: Model, options: SolveOptions) -> float:
+    """How far (mm) a short step 1 (its first start, reach.REACH_EVALUATIONS)
+    brings the target from its requested position: a screen (a full step 1
+    cost the chain of 100 S-hooks 0.46 s, this one 0.16)."""
     goal = target_mod.goal_of(model)
     step1, starts = step_one(model, options.seed, None, options.deadline)
     pairs = contact_pairs(model, lambda _: None)
     fit = fit_target(step1, goal, [next(starts)], pairs, reach.REACH_EVALUATIONS)
-    return target_mod.errors(goal, target_mod.achieved(goal, model.part_frames(step1.full(fit.v))))
+    return target_mod.errors(goal, target_mod.achieved(goal, model.part_frames(step1.full(fit.v))))[0]
+
+
+def _jammed_rings(model: Model, result: Solution) -> list[Connection]:
+    """The connections, in a hack with loops, where a toss ring (`RingFlexSpin`)
+    rests with its twist about the contact on its jam, whose alignment the
+    program leaves open (TURNS_TRIED at most)."""
+    if not model.closures:
+        return []
+    jammed = [
+        joint.connection
+        for joint in model.joints
+        if not joint.connection.aligned
+        and any(
+            side.primitive.variant == "RingFlexSpin"
+            and any(
+                i in result.at_bound and dof.name == "phi"
+                for i, dof in zip(side.dof_indices, side.primitive.dofs, strict=True)
+            )
+            for side in (joint.a, joint.b)
+        )
+    ]
+    return jammed[:TURNS_TRIED]
+
+
+def _untwisted(model: Model, options: SolveOptions, result: Solution) -> Solution:
+    """A hack with loops that rests with a toss ring twisted on its jam
+    (`_jammed_rings`): a ring meets a wire one way round or the other, the same
+    ring turned half round the contact's line, but in a loop the two close it
+    differently, one of them only with rings twisted as far as their wires
+    let them. A builder lets a ring hang untwisted; so each such connection is
+    turned over, and the turned design that rests at rest lowest, lower than
+    `result` by more than UNTWISTED_J, is the result, with N507 saying so (a
+    basket on two toss rings with a bottle in it rested tilted 6 degrees with
+    all four twists on their jams, 0.265 J above its level rest turned over).
+    Else `result`."""
+    best: tuple[Connection, Solution] | None = None
+    lowest = result.energy - UNTWISTED_J
+    for connection in _jammed_rings(model, result):
+        turned = _solved_turned(
+            _turned(model, connection), options, connection, "a ring rests twisted on its jam"
+        )
+        if turned is not None and turned.energy < lowest:
+            best, lowest = (connection, turned), turned.energy
+    if best is None:
+        return result
+    connection, turned = best
+    higher = result.energy - turned.energy
+    failure = f"rests {higher:.3f} J higher, a toss ring twisted on its contact as far as it goes"
+    return replace(turned, diagnostics=(_aligned_note(connection, turned, failure), *turned.diagnostics))
+
+
+# joules: a turned design that rests lower than this is a lower rest, not the same one
+UNTWISTED_J = 1e-3
 
 
 # a design turned over is kept where it hangs nearer the request than this (mm, with
@@ -526,14 +571,12 @@ def _solve_once(model: Model, options: SolveOptions, loop_start: Array | None) -
     )
     fitted = target_mod.errors(goal, target_mod.achieved(goal, model.part_frames(x)))
     out_of_reach_mm = 0.0  # where the parts cannot bring the target to its requested position (W505)
-    out_of_reach_deg = 0.0  # where, with loops, they cannot turn it as asked
     if fit.late:
         notes.append(_late(options))
     elif not step1.out_of_time() and reach.out_of_reach(fitted):
         options.report("step 1: the target is out of reach; finding what limits it")
         loose, loose_position = reach.loosened(step1, goal, x)
         out_of_reach_mm = fitted[0] if reach.position_out_of_reach(fitted[0], loose_position) else 0.0
-        out_of_reach_deg = fitted[1] if model.closures and fitted[1] > reach.REACH_DEG else 0.0
         # a family's member keeps its notes as codes: the explanation is not written
         explained = reach.diagnose(step1, goal, x, loose, loose_position) if options.explain else None
         notes.append(explained or reach.unexplained(model, goal, x))
@@ -606,7 +649,7 @@ def _solve_once(model: Model, options: SolveOptions, loop_start: Array | None) -
         # have, and W505's "they reach only so far" would be false (a basket on a ring and an
         # S-hook from a ceiling hook, aimed to 0.0 mm, was said to stay 28 mm away)
         notes = [n for n in notes if n.code != "W505"]
-        out_of_reach_mm = out_of_reach_deg = 0.0
+        out_of_reach_mm = 0.0
     looked = settled.pairs or pairs  # the contact as the settle ended with it
     through = crossings(model, x, looked)
     overlaps = _overlaps(model, x, looked, masses)
@@ -672,7 +715,6 @@ def _solve_once(model: Model, options: SolveOptions, loop_start: Array | None) -
         settled.forces,
         settled.contacts,
         out_of_reach_mm,
-        out_of_reach_deg,
         tuple((part, other) for part, other, _ in overlaps if model.parts[other].environment),
     )
 
