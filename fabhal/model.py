@@ -37,6 +37,7 @@ from fabhal.primitives import (
     jam_of,
     make_primitive,
     turning_to_the_jam,
+    twists_only_in_loops,
     yaw_jam_between,
 )
 
@@ -847,7 +848,7 @@ def _twisting(primitive: Primitive, connection: Connection, label: str, loops: b
     on two ceiling hooks held a broom hung on two chains 102 mm above where
     the chains end, its S-hooks 34 mm out of plumb
     (tests/solve/test_ring_spin.py)."""
-    if loops or primitive.variant != "RingFlexSpin":
+    if loops or not twists_only_in_loops(primitive.variant, "phi"):
         return primitive
     if any(s.side == label and s.dof == "phi" for s in connection.settings):
         return primitive

@@ -641,6 +641,12 @@ TILTING = ("Rod", "RodCtl")  # the variants whose `phi` tilts what hangs on them
 SPINNING = ("RingSpin", "RingFlexSpin")  # the variants whose `spin` turns them about their own wire
 
 
+def twists_only_in_loops(variant: str, dof_name: str) -> bool:
+    """Whether a DoF exists only in a hack with loops: a spinning ring's twist
+    about its contact (fabhal/model.py `_twisting` says why)."""
+    return variant == "RingFlexSpin" and dof_name == "phi"
+
+
 def is_flex_angle(dof: Dof, variant: str) -> bool:
     """Whether `dof` is a flex angle: the `phi` of a flexible hook or ring, its
     turn about the line of its contact."""

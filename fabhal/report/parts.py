@@ -6,7 +6,7 @@ from typing import TYPE_CHECKING, Any
 
 from fabhal.library import Library, PartSpec, PartType
 from fabhal.meshes import FRAME_OUTSIDE_SAID_MM, MassProperties, mass_properties
-from fabhal.primitives import Primitive
+from fabhal.primitives import Primitive, twists_only_in_loops
 from fabhal.syntax import ast
 
 if TYPE_CHECKING:
@@ -54,6 +54,7 @@ def primitive_json(primitive: Primitive) -> dict[str, Any]:
                 "tag": d.tag.value,
                 "open_at_min": d.low_open,
                 "open_at_max": d.high_open,
+                "only_in_loops": twists_only_in_loops(primitive.variant, d.name),
             }
             for d in primitive.dofs
         ],
@@ -139,7 +140,9 @@ def detail_renderables(info: dict[str, Any]) -> list[RenderableType]:
             shape += "; " + ", ".join(flags)
         frame = f"at {_numbers(p['frame']['pos'])}\nrot {_numbers(p['frame']['rot'])}"
         dofs = "\n".join(
-            f"{d['name']} {d['min']:g}..{d['max']:g} ({d['default']:g}) {d['tag']}" for d in p["dofs"]
+            f"{d['name']} {d['min']:g}..{d['max']:g} ({d['default']:g}) {d['tag']}"
+            + (" (loops only)" if d["only_in_loops"] else "")
+            for d in p["dofs"]
         )
         kind = p["kind"] if p["variant"].lower() == p["kind"] else f"{p['kind']} ({p['variant']})"
         table.add_row(p["name"], kind, shape, frame, dofs)

@@ -59,3 +59,16 @@ def test_unknown_part_suggests_a_name() -> None:
     run = fabhal("parts", "DoubleHok")
     assert run.returncode == 2
     assert "did you mean `DoubleHook`?" in run.stderr and "Traceback" not in run.stderr
+
+
+def test_a_toss_rings_twist_is_said_to_act_in_loops_only() -> None:
+    """A toss ring's twist about its contact (`flex`) is left out of hacks
+    without loops, where it carries no load (fabhal/model.py `_twisting`):
+    the part's listing says so at that DoF, and at no S-hook's flex."""
+    ring = json.loads(fabhal("parts", "RingM", "--json").stdout)["primitives"][0]
+    only_in_loops = {d["name"]: d["only_in_loops"] for d in ring["dofs"]}
+    assert only_in_loops == {"theta": False, "phi": True, "spin": False}
+    hook = json.loads(fabhal("parts", "DoubleHook", "--json").stdout)["primitives"][0]
+    assert not any(d["only_in_loops"] for d in hook["dofs"])
+    human = fabhal("parts", "RingM").stdout
+    assert "loops only" in human and "loops" not in fabhal("parts", "DoubleHook").stdout
