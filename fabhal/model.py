@@ -34,10 +34,10 @@ from fabhal.primitives import (
     alignment_offset,
     grips,
     is_flex_angle,
+    is_ring_twist,
     jam_of,
     make_primitive,
     turning_to_the_jam,
-    twists_only_in_loops,
     yaw_jam_between,
 )
 
@@ -848,7 +848,7 @@ def _twisting(primitive: Primitive, connection: Connection, label: str, loops: b
     on two ceiling hooks held a broom hung on two chains 102 mm above where
     the chains end, its S-hooks 34 mm out of plumb
     (tests/solve/test_ring_spin.py)."""
-    if loops or not twists_only_in_loops(primitive.variant, "phi"):
+    if loops or not any(is_ring_twist(primitive.variant, dof.name) for dof in primitive.dofs):
         return primitive
     if any(s.side == label and s.dof == "phi" for s in connection.settings):
         return primitive

@@ -641,9 +641,10 @@ TILTING = ("Rod", "RodCtl")  # the variants whose `phi` tilts what hangs on them
 SPINNING = ("RingSpin", "RingFlexSpin")  # the variants whose `spin` turns them about their own wire
 
 
-def twists_only_in_loops(variant: str, dof_name: str) -> bool:
-    """Whether a DoF exists only in a hack with loops: a spinning ring's twist
-    about its contact (fabhal/model.py `_twisting` says why)."""
+def is_ring_twist(variant: str, dof_name: str) -> bool:
+    """Whether a DoF is a spinning ring's twist about the line of its contact
+    (a toss ring's `flex`), which exists only in a hack with loops
+    (fabhal/model.py `_twisting` says why)."""
     return variant == "RingFlexSpin" and dof_name == "phi"
 
 

@@ -6,7 +6,7 @@ from typing import TYPE_CHECKING, Any
 
 from fabhal.library import Library, PartSpec, PartType
 from fabhal.meshes import FRAME_OUTSIDE_SAID_MM, MassProperties, mass_properties
-from fabhal.primitives import Primitive, twists_only_in_loops
+from fabhal.primitives import Primitive, is_ring_twist
 from fabhal.syntax import ast
 
 if TYPE_CHECKING:
@@ -54,7 +54,7 @@ def primitive_json(primitive: Primitive) -> dict[str, Any]:
                 "tag": d.tag.value,
                 "open_at_min": d.low_open,
                 "open_at_max": d.high_open,
-                "only_in_loops": twists_only_in_loops(primitive.variant, d.name),
+                "only_in_loops": is_ring_twist(primitive.variant, d.name),
             }
             for d in primitive.dofs
         ],

@@ -24,6 +24,7 @@ from fabhal.kinematics.statics import Wrenches
 from fabhal.meshes import mass_properties
 from fabhal.model import Joint, Model, Side, Standing, build_model
 from fabhal.optimize import Result
+from fabhal.primitives import is_ring_twist
 from fabhal.solve import aim as aim_mod
 from fabhal.solve import reach
 from fabhal.solve import target as target_mod
@@ -229,8 +230,9 @@ def solve(model: Model, options: SolveOptions, loop_start: Array | None = None) 
     first = _solve_once(model, options, loop_start)
     # without gravity, or from a continued start, one try: the member's own solve makes the others
     one_try = not options.gravity or options.start is not None
-    if first.status == "solved" and not one_try and _jammed_rings(model, first):
-        first = _untwisted(model, options, first)
+    jammed = _jammed_rings(model, first) if first.status == "solved" and not one_try else []
+    if jammed:
+        first = _untwisted(model, options, first, jammed)
     if first.status == "solved" and first.out_of_reach_mm > 0.0 and not one_try:
         return _aligned_nearer(model, options, first)
     if first.status in ("solved", "infeasible", "error") or one_try:
@@ -428,9 +430,9 @@ def _fitted_position(model: Model, options: SolveOptions) -> float:
 
 
 def _jammed_rings(model: Model, result: Solution) -> list[Connection]:
-    """The connections, in a hack with loops, where a toss ring (`RingFlexSpin`)
-    rests with its twist about the contact on its jam, whose alignment the
-    program leaves open (TURNS_TRIED at most)."""
+    """The connections, in a hack with loops, where a toss ring rests with its
+    twist about the contact on its jam (`primitives.is_ring_twist`), whose
+    alignment the program leaves open (TURNS_TRIED at most)."""
     if not model.closures:
         return []
     jammed = [
@@ -438,20 +440,17 @@ def _jammed_rings(model: Model, result: Solution) -> list[Connection]:
         for joint in model.joints
         if not joint.connection.aligned
         and any(
-            side.primitive.variant == "RingFlexSpin"
-            and any(
-                i in result.at_bound and dof.name == "phi"
-                for i, dof in zip(side.dof_indices, side.primitive.dofs, strict=True)
-            )
+            i in result.at_bound and is_ring_twist(side.primitive.variant, dof.name)
             for side in (joint.a, joint.b)
+            for i, dof in zip(side.dof_indices, side.primitive.dofs, strict=True)
         )
     ]
     return jammed[:TURNS_TRIED]
 
 
-def _untwisted(model: Model, options: SolveOptions, result: Solution) -> Solution:
-    """A hack with loops that rests with a toss ring twisted on its jam
-    (`_jammed_rings`): a ring meets a wire one way round or the other, the same
+def _untwisted(model: Model, options: SolveOptions, result: Solution, jammed: list[Connection]) -> Solution:
+    """A hack with loops that rests with a toss ring twisted on its jam at the
+    connections `jammed` (`_jammed_rings`): a ring meets a wire one way round or the other, the same
     ring turned half round the contact's line, but in a loop the two close it
     differently, one of them only with rings twisted as far as their wires
     let them. A builder lets a ring hang untwisted; so each such connection is
@@ -462,7 +461,7 @@ def _untwisted(model: Model, options: SolveOptions, result: Solution) -> Solutio
     Else `result`."""
     best: tuple[Connection, Solution] | None = None
     lowest = result.energy - UNTWISTED_J
-    for connection in _jammed_rings(model, result):
+    for connection in jammed:
         turned = _solved_turned(
             _turned(model, connection), options, connection, "a ring rests twisted on its jam"
         )
