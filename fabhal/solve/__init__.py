@@ -48,22 +48,26 @@ from fabhal.solve.falls import (
     Lean,
     LiftOff,
     Slip,
+    Swivel,
     Topple,
     Turn,
     fall_diagnostic,
     falling_part,
     lifts_off,
+    swivels,
     tips_off_its_feet,
     topples,
     turns_about_wires,
 )
 from fabhal.solve.forces import (
     Slide,
+    about_the_normal,
     about_the_wire,
     connection_wrenches,
     friction_slides,
     normal_forces,
     slide_dofs,
+    square_loops,
     weight_newtons,
     welded_rings,
 )
@@ -291,6 +295,8 @@ def _what_failed(fall: Failure) -> str:
         return "lifted off its contact"
     if isinstance(fall, Turn):
         return "was held by its ring's contact kept on the inner line"
+    if isinstance(fall, Swivel):
+        return "was held square in a hook or ring by the model"
     return "hung on a lean's limit" if isinstance(fall, Lean) else "slid off"
 
 
@@ -654,8 +660,9 @@ def _solve_once(model: Model, options: SolveOptions, loop_start: Array | None) -
     overlaps = _overlaps(model, x, looked, masses)
     # a part deeper than OVERLAP_KEPT_MM in another is pushed by springs far past any real
     # contact's give (a roll 9.9 mm in a rod: 124 N on a 3 N hack): no contact "would have
-    # to pull" under such loads, and the E512s they made hid the E508 that says why
-    falls = tuple(f for f in settled.falls if not (overlaps and isinstance(f, LiftOff)))
+    # to pull", or to carry what a point cannot, under such loads, and the E512s (and E514s)
+    # they made hid the E508 that says why
+    falls = tuple(f for f in settled.falls if not (overlaps and isinstance(f, LiftOff | Turn | Swivel)))
     diagnostics = [*notes, *(fall_diagnostic(model, f) for f in falls)]
     gap = closure_residual_mm(model, x)
     if gap > LOOP_KEPT_MM:
@@ -964,6 +971,39 @@ def _turning_rings(
     return turns if freed.imbalance > EQUILIBRIUM_TOLERANCE * newtons else ()
 
 
+def _swivelling_rods(
+    problem: Problem,
+    x: Array,
+    masses: Array,
+    centres: Array,
+    slides: list[Slide],
+    contacts: tuple[Contact, ...],
+    wrenches: Wrenches,
+) -> tuple[Swivel, ...]:
+    """The rods in hooks or rings that would turn on their contacts at x
+    (`falls.Swivel`): those whose contact carries what a point cannot in
+    `wrenches` (`falls.swivels`), where the statics with each such loop's
+    turn about the line of its contact left free (`forces.about_the_normal`)
+    no longer balance the parts within the settle's slack (where they do,
+    some split of a loop's load needs no such moment: at rest). A rod hanging
+    in the bottom of a loop carries its load through the contact; a rod
+    wedged across a loop's side, where both contacts push sideways, cannot.
+    Not judged where the rod's contact sits at a closed end of the rod: in
+    the corner where a basket's handle bends down the loop's wire touches
+    the grip and the bend, more than the one contact modelled (as a lean
+    there is not, E509). The model's own statics first, as for the rings
+    (`_turning_rings`): on the gallery no rod needs the second."""
+    loops = [loop for loop in square_loops(problem.model) if not _at_a_closed_end(problem, x, loop.rod)]
+    newtons = float(weight_newtons(masses).sum())
+    found = swivels(problem.model, x, loops, wrenches, newtons) if loops else ()
+    if not found:
+        return ()
+    freed = _wrenches(
+        problem, x, masses, centres, slides, contacts, about_the_normal(problem.model, x, loops)
+    )
+    return found if freed.imbalance > EQUILIBRIUM_TOLERANCE * newtons else ()
+
+
 def _settle(
     step1: Problem,
     x: Array,
@@ -1269,8 +1309,15 @@ def _settle_with(
     tipping = (*topples(model, x, wrenches, set(at_bound)), *tips_off_its_feet(model, x, wrenches, weight))
     lifts = lifts_off(model, x, wrenches, masses)
     turns = _turning_rings(step2, x, masses, centres, slides, contacts, wrenches)
+    swivelling = _swivelling_rods(step2, x, masses, centres, slides, contacts, wrenches)
     return Settled(
-        x, equilibrium, at_bound, (*falls, *tipping, *lifts, *turns), wrenches.forces, contacts, leaning
+        x,
+        equilibrium,
+        at_bound,
+        (*falls, *tipping, *lifts, *turns, *swivelling),
+        wrenches.forces,
+        contacts,
+        leaning,
     )
 
 
@@ -1644,10 +1691,17 @@ def _in_a_corner(problem: Problem, x: Array, lean: int) -> bool:
     """Whether the side of a lean (DoF `lean`) sits at a closed end of its rod:
     in the corner where a basket's handle bends down, which stops the lean as
     a real end does (a hook pushed into the bend of a U-handle)."""
+    side = problem.model.side_of(lean)
+    return side.dof_indices[0] != lean and _at_a_closed_end(problem, x, side)
+
+
+def _at_a_closed_end(problem: Problem, x: Array, side: Side) -> bool:
+    """Whether a rod's side sits at a closed end of the rod (its slide `t` on
+    an end that holds)."""
     model = problem.model
-    slide = model.side_of(lean).dof_indices[0]
+    slide = side.dof_indices[0]
     dof = model.variables[slide].dof
-    if dof.name != "t" or slide == lean:
+    if dof.name != "t":
         return False
     end = _end_of(*model.bounds(), slide, x)
     return (end == "min" and not dof.low_open) or (end == "max" and not dof.high_open)

@@ -4,8 +4,9 @@ only by the model's limit (`Lean`, E509), both found by the settle's
 verification (fabhal/solve/__init__.py), and, found here in the settled
 statics' wrenches, a contact that would have to pull (`LiftOff`, E512), a
 standing object that falls over (`Topple`, E507) or slides on its round feet
-(`Slip`, E510), and a ring that would turn about its own wire (`Turn`,
-E513). docs/errors.md explains each error."""
+(`Slip`, E510), a ring that would turn about its own wire (`Turn`,
+E513) and a rod that would turn on its contact in a hook or ring (`Swivel`,
+E514). docs/errors.md explains each error."""
 
 from __future__ import annotations
 
@@ -17,8 +18,15 @@ from fabhal.diagnostics import Diagnostic, error
 from fabhal.kinematics.frames import Array
 from fabhal.kinematics.statics import MOMENT_ARM_MM, Wrenches, pressing
 from fabhal.model import Joint, Model, Side, threaded
-from fabhal.primitives import grips
-from fabhal.solve.forces import WeldedRing, point_contacts, weight_newtons, welded_sides
+from fabhal.primitives import across, grips
+from fabhal.solve.forces import (
+    SquareLoop,
+    WeldedRing,
+    contact_normals,
+    point_contacts,
+    weight_newtons,
+    welded_sides,
+)
 from fabhal.solve.steps import FRICTION, FRICTION_AGREEMENT
 
 # a standing object falls over when its floor would have to push beyond the edge
@@ -101,10 +109,28 @@ class Turn:
     others: tuple[str, ...] = ()  # the other rings that would turn, by how much over their wires, most first
 
 
+@dataclass(frozen=True)
+class Swivel:
+    """A rod in a hook or ring that would turn on its contact: the model keeps
+    the loop square round the rod (`forces.SquareLoop`), and at rest there the
+    contact carries a moment about the line of the contact, and a force along
+    the loop's wire, that a rod touching a wire at a point cannot: the real
+    rod turns on the wire or slides along it (where to is not computed)."""
+
+    joint: int
+    rod: str  # the rod's endpoint, as written
+    loop: str
+    part: str  # the rod's part
+    moment: float  # N mm about the line of the contact
+    along: float  # N along the loop's wire at the contact
+    others: tuple[str, ...] = ()  # the other rods that would turn, most first
+
+
 # what keeps a result from being at rest, each said by an error
-Failure = Fall | Topple | Lean | Slip | LiftOff | Turn
-# held only by the model (a lean's stop, a welded ring) or sliding feet: not at rest, nothing falls
-RESTLESS = Lean | Slip | Turn
+Failure = Fall | Topple | Lean | Slip | LiftOff | Turn | Swivel
+# held only by the model (a lean's stop, a welded ring, a loop kept square on a rod) or
+# sliding feet: not at rest, nothing falls
+RESTLESS = Lean | Slip | Turn | Swivel
 
 
 # a contact "pulls" where the pull along its normal is over this fraction of the assembly's
@@ -190,6 +216,48 @@ def turns_about_wires(
     return (
         replace(worst, others=tuple(dict.fromkeys(turn.ring for turn in others if turn.ring != worst.ring))),
     )
+
+
+def swivels(
+    model: Model, x: Array, loops: list[SquareLoop], wrenches: Wrenches, newtons: float
+) -> tuple[Swivel, ...]:
+    """The square loops (`forces.square_loops`) whose contact carries, in
+    `wrenches` (the statics as the model has it, the assembly weighing
+    `newtons`), what a rod touching a wire at a point cannot: a moment about
+    the line of the contact (its normal n through the contact point, where
+    the moments are taken), M . n, or a force along the loop's wire there,
+    F . (n x a) (a the rod's axis), more than 1 % of the weight at the rod's
+    radius or along the wire (less is the rounding of a contact that carries
+    nothing). Named for the one that carries most about the line, the others
+    listed. In a loop these are one split of the load among many: the caller
+    confirms that no split needs them (`solve._swivelling_rods`)."""
+    normals = contact_normals(model, x, loops)
+    fwd = model.forward(x, with_twists=True)
+    assert fwd.own_twists is not None
+    found = []
+    for loop, normal in zip(loops, normals, strict=True):
+        axis = fwd.own_twists[loop.rod.dof_indices[0], :3, 3]
+        along_wire = np.cross(normal, axis / np.linalg.norm(axis))
+        moment = abs(float(wrenches.moments[loop.joint] @ normal))
+        along = abs(float(wrenches.forces[loop.joint] @ along_wire))
+        if max(along, moment / (across(loop.rod.primitive) / 2.0)) <= LIFT_CARRIES * newtons:
+            continue
+        joint = model.joints[loop.joint]
+        rod = str(joint.endpoint(loop.rod))
+        found.append(
+            Swivel(
+                loop.joint,
+                rod,
+                str(joint.endpoint(loop.loop)),
+                model.parts[loop.rod.part].name,
+                moment,
+                along,
+            )
+        )
+    if not found:
+        return ()
+    worst, *others = sorted(found, key=lambda swivel: -swivel.moment)
+    return (replace(worst, others=tuple(dict.fromkeys(o.rod for o in others if o.rod != worst.rod))),)
 
 
 def _holder_and_held(model: Model, joint: Joint) -> tuple[Side, Side]:
@@ -317,6 +385,8 @@ def fall_diagnostic(model: Model, fall: Failure) -> Diagnostic:
         return _lift_off_diagnostic(model, fall)
     if isinstance(fall, Turn):
         return _turn_diagnostic(model, fall)
+    if isinstance(fall, Swivel):
+        return _swivel_diagnostic(model, fall)
     variable = model.variables[fall.dof]
     joint = model.joints[fall.joint]
     end = joint.connection.a if variable.side == "a" else joint.connection.b
@@ -373,14 +443,18 @@ def _lift_off_diagnostic(model: Model, lift: LiftOff) -> Diagnostic:
     )
 
 
-OTHERS_NAMED = 3  # E513 names this many of the other rings that would turn
+OTHERS_NAMED = 3  # E513 and E514 name this many of the others that would turn
+
+
+def _so_would(others: tuple[str, ...]) -> str:
+    named = ", ".join(f"`{name}`" for name in others[:OTHERS_NAMED])
+    if len(others) > OTHERS_NAMED:
+        named += f" and {len(others) - OTHERS_NAMED} more"
+    return f"; so would {named}" if named else ""
 
 
 def _turn_diagnostic(model: Model, turn: Turn) -> Diagnostic:
-    others = ", ".join(f"`{ring}`" for ring in turn.others[:OTHERS_NAMED])
-    if len(turn.others) > OTHERS_NAMED:
-        others += f" and {len(turn.others) - OTHERS_NAMED} more"
-    also = f"; so would {others}" if others else ""
+    also = _so_would(turn.others)
     return error(
         "E513",
         f"not at rest: `{turn.ring}` would turn about its own wire in `{turn.hook}`: held still it "
@@ -390,6 +464,21 @@ def _turn_diagnostic(model: Model, turn: Turn) -> Diagnostic:
         "the model keeps this ring's contact on its inner line, as the reference does; a real ring turns "
         "in the hook until what hangs from it pulls in line. Use a part whose ring says `spin: true` "
         "(docs/primitives.md), or hang the ring so that what it carries pulls in its plane",
+    )
+
+
+def _swivel_diagnostic(model: Model, swivel: Swivel) -> Diagnostic:
+    also = _so_would(swivel.others)
+    return error(
+        "E514",
+        f"not at rest: `{swivel.rod}` would turn on its contact with `{swivel.loop}`: held still it carries "
+        f"{swivel.moment:.3g} N mm about the line of the contact and {swivel.along:.2f} N along the wire, "
+        f"which a rod touching a wire at a point cannot{also}",
+        model.joints[swivel.joint].connection.span,
+        "the model keeps the hook or ring square round the rod, as the reference does; the real rod turns "
+        "on the wire, or slides along it, until what it carries pulls through the contact. Hang the rod "
+        "where the loop's wire is beneath it, use a hook that says `flex: true` (docs/primitives.md), or "
+        "tape the connection (`fixed`)",
     )
 
 

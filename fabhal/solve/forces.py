@@ -15,6 +15,7 @@ import numpy as np
 from fabhal.kinematics.frames import Array, angular_velocities
 from fabhal.kinematics.statics import Wrenches, joint_wrenches
 from fabhal.model import Joint, Model, Side
+from fabhal.primitives import TILTING, grips
 
 GRAVITY = 9.81  # m/s2
 SLIDING_KINDS = ("rod", "tube", "edge")
@@ -111,6 +112,66 @@ def about_the_wire(model: Model, x: Array, rings: list[WeldedRing]) -> tuple[Arr
     wires = np.array([ring.ring.primitive.params["thickness"] for ring in rings])
     joints = np.array([ring.joint for ring in rings], dtype=int)
     return joints, wires[:, None] * connectors[:, :3, 0], connectors[:, :3, 1]
+
+
+# loops the model keeps square round a rod: no turn about the line of their contact (a
+# flexing hook's or ring's `phi` is that turn, with its jam)
+SQUARE_LOOPS = ("Hook", "Ring", "RingSpin")
+
+
+@dataclass(frozen=True)
+class SquareLoop:
+    """A rod lying in a hook or ring that the model keeps from turning about the
+    line of their contact (the common normal through the contact point): the
+    reference's rod-in-loop connection has four DoFs where a rod touching a
+    wire at a point has five, so the contact can carry a moment about that
+    line and, with the rod tilted, a force along the wire, neither of which a
+    push at a point carries."""
+
+    joint: int
+    rod: Side
+    loop: Side
+
+
+def square_loops(model: Model) -> list[SquareLoop]:
+    """The rods in hooks or rings that do not flex (`SQUARE_LOOPS`), not
+    `fixed` (tape holds what the contact does not) and not gripped (a hook
+    bent open round a rod cannot turn on it: its wire jams at once)."""
+    return [
+        SquareLoop(joint.index, rod, loop)
+        for joint in model.joints
+        if not joint.held
+        for rod, loop in ((joint.a, joint.b), (joint.b, joint.a))
+        if rod.primitive.variant in TILTING
+        and loop.primitive.variant in SQUARE_LOOPS
+        and not grips(loop.primitive, rod.primitive)
+    ]
+
+
+def contact_normals(model: Model, x: Array, loops: list[SquareLoop]) -> Array:
+    """(L, 3) each rod's normal at its contact with the loop: the loop's inward
+    direction there (its connector's z) less its part along the rod's axis
+    (the direction its slide `t` moves it), as a rod's surface normal is
+    square to its axis."""
+    fwd = model.forward(x, with_twists=True)
+    assert fwd.own_twists is not None
+    normals = np.zeros((len(loops), 3))
+    for k, loop in enumerate(loops):
+        axis = fwd.own_twists[loop.rod.dof_indices[0], :3, 3]
+        axis = axis / np.linalg.norm(axis)
+        inward = model.connector_frame(loop.loop, x, fwd.frames)[:3, 2]
+        normal = inward - (inward @ axis) * axis
+        normals[k] = normal / np.linalg.norm(normal)
+    return normals
+
+
+def about_the_normal(model: Model, x: Array, loops: list[SquareLoop]) -> tuple[Array, Array, Array]:
+    """Each square loop's missing turn about the line of its contact, as a free
+    motion for `connection_wrenches`: a rotation about the contact normal
+    through the contact point (no velocity there). (L,) joints, (L, 3)
+    velocities (mm), (L, 3) rotations (rad)."""
+    joints = np.array([loop.joint for loop in loops], dtype=int)
+    return joints, np.zeros((len(loops), 3)), contact_normals(model, x, loops)
 
 
 def slide_dofs(slides: Iterable[Slide]) -> list[int]:

@@ -200,3 +200,71 @@ target stick at (0, 0, 1400)
     axis = solution.frames[solution.model.part_index("stick")][:3, 2]
     inclination = np.degrees(np.arcsin(abs(axis[2])))
     assert inclination == pytest.approx(np.degrees(np.arccos(6.35 / 22.5)), abs=0.5)
+
+
+# a basket body hung by its loose wire handle's grip (a 3 mm rod) from a ceiling hook
+# (inside radius 25 - 2.5 = 22.5 mm, a plain hook: it does not flex)
+GRIP_IN_A_CEILING_HOOK = """\
+environment c = CeilingHook() at (0, 0, 1500)
+handle = BasketHandle()
+basket = BasketBase()
+connect handle.rod1 -- c.hook
+connect basket.ring1 -- handle.rod2
+connect basket.ring2 -- handle.rod3
+target handle.rod1 at (0, 0, 1419) rot (0, 90, 0)
+"""
+
+
+def test_a_grip_wedged_across_a_hooks_side_is_not_at_rest(tmp_path: Path) -> None:
+    """From its first start the settle leaves the grip across the hook's ring
+    at its side (c.hook.theta 30, the ring's bottom being 120), tilted to its
+    jam (cos b = r / p = 3 / 22.5: b = 82.34 degrees): a rod spanning the
+    ring from side to side, touching it at two points whose normals are
+    horizontal. The model's contact, kept square round the rod, makes the
+    whole a pendulum about the ring's centre, and the result was `solved`.
+    Two pushes square to the rod at the ring's sides cannot hold a weight;
+    the contact carries the whole weight, (67.3 + 103.0) g x 9.81 = 1.6706
+    N, along the wire, and, the weight hanging under the ring's centre, 22.5
+    sin b = 22.30 mm beside the contact (the ring's inner line) across the
+    line of the contact: 1.6706 x 22.30 = 37.25 N mm about it. Now E514, not
+    at rest. Tolerances: 0.01 N and 0.5 N mm (the settle's leftover 1e-3 of
+    the weight, the mesh's centre of mass off the hook's axis by a fraction
+    of a millimetre); the normal within 0.2 of horizontal."""
+    import math
+
+    from fabhal.solve.falls import Swivel
+    from fabhal.solve.forces import contact_normals, square_loops
+
+    result = solve_text(tmp_path, GRIP_IN_A_CEILING_HOOK)
+    assert result.status == "not_at_rest"
+    (said,) = [d for d in result.diagnostics if d.code == "E514"]
+    assert said.span is not None and said.span.line == 4 and "37.3 N mm" in said.message
+    (swivel,) = [fall for fall in result.solution.falls if isinstance(fall, Swivel)]
+    assert swivel.rod == "handle.rod1" and swivel.loop == "c.hook" and not swivel.others
+    weight = (67.3 + 103.0) / 1000.0 * 9.81
+    assert swivel.along == pytest.approx(weight, abs=0.01)
+    assert swivel.moment == pytest.approx(weight * 22.5 * math.sin(math.acos(3.0 / 22.5)), abs=0.5)
+    solution = result.solution
+    grip = [loop for loop in square_loops(solution.model) if loop.joint == swivel.joint]
+    (normal,) = contact_normals(solution.model, solution.x, grip)
+    assert abs(normal[2]) < 0.2
+
+
+def test_a_grip_in_the_bottom_of_a_hook_carries_its_load_through_the_contact(tmp_path: Path) -> None:
+    """The control: a basket with a fixed handle hung from the same hook by
+    its grip's middle (`set` t 0.5) hangs level, its grip in the bottom of
+    the hook's ring (c.hook.theta 120): the contact's normal vertical, the
+    weight 109 g x 9.81 = 1.069 N along it, nothing about the vertical line
+    or along the wire. Solved, no E514."""
+    text = (
+        "environment c = CeilingHook() at (0, 0, 1500)\n"
+        "basket = HandleBasket()\n"
+        "connect basket.rod -- c.hook set (basket.rod.t: 0.5)\n"
+        "target basket.rod at (0, 0, 1419)\n"
+    )
+    result = solve_text(tmp_path, text)
+    assert result.status == "solved", [d.message for d in result.diagnostics]
+    names = [v.name for v in result.solution.model.variables]
+    assert result.solution.x[names.index("c.hook.theta")] == pytest.approx(120.0, abs=0.5)
+    assert result.solution.forces is not None
+    assert np.linalg.norm(result.solution.forces[0]) == pytest.approx(0.109 * 9.81, abs=0.005)
