@@ -147,6 +147,8 @@ class Model:
     closure_play: tuple[float, ...] = ()
     written: frozenset[int] = frozenset()  # DoFs the program sets (`set (...)`): in `pinned`, never moved
     turn_limits: tuple[TurnLimit, ...] = ()  # flex angles on both sides of a connection, jammed together
+    # plain hooks and rings round rods turn about the line of their contact (`_turning_on_a_rod`)
+    turning_on_rods: bool = False
 
     # ---- the DoF vector
 
@@ -752,7 +754,7 @@ def _residual_of(errors: Array) -> Array:
     return out
 
 
-def build_model(program: FlatProgram) -> Model:
+def build_model(program: FlatProgram, turning_on_rods: bool = False) -> Model:
     """Lay out the DoF vector and grow the spanning tree from the environments.
     The parts are ordered as the tree reaches them, not as written: the
     environments by name, then each part as the connections (in their
@@ -760,27 +762,36 @@ def build_model(program: FlatProgram) -> Model:
     nothing places, by name. Every sum over parts (the weights, the contacts)
     is then added in the same order whatever the order of the declarations
     (the diaper caddy, its parts declared in reverse, once came to rest 27 mm
-    elsewhere: its valley is flat enough for rounding to choose)."""
+    elsewhere: its valley is flat enough for rounding to choose).
+    `turning_on_rods`: in a hack with loops, plain hooks and rings round rods
+    turn about the line of their contact (`_turning_on_a_rod`)."""
     by_name = _assemble(program, tuple(sorted(program.parts, key=lambda part: part.name)))
     environments = [i for i, part in enumerate(by_name.parts) if part.environment]
     reached = [by_name.placed_sides(edge)[1].part for edge in by_name.tree]
     order = [*environments, *reached, *by_name.unplaced]
-    return _assemble(program, tuple(by_name.parts[i] for i in order), loops=bool(by_name.closures))
+    loops = bool(by_name.closures)
+    return _assemble(program, tuple(by_name.parts[i] for i in order), loops, loops and turning_on_rods)
 
 
-def _assemble(program: FlatProgram, parts: tuple[PartInstance, ...], loops: bool = True) -> Model:
+def _assemble(
+    program: FlatProgram, parts: tuple[PartInstance, ...], loops: bool = True, turning_on_rods: bool = False
+) -> Model:
     """The model of `program` with its parts in this order; without `loops`,
-    the spinning rings' twists left out (`_twisting`)."""
+    the spinning rings' twists left out (`_twisting`); with `turning_on_rods`,
+    plain hooks and rings round rods turning on them (`_turning_on_a_rod`)."""
     index = {p.name: i for i, p in enumerate(parts)}
     variables: list[DofVariable] = []
     joints: list[Joint] = []
     for j, connection in enumerate(sorted(program.connections, key=_connection_key)):
         sides = []
-        for label, end in (("a", connection.a), ("b", connection.b)):
+        ends = (("a", connection.a), ("b", connection.b))
+        resolved = [parts[index[end.part]].spec.primitive(end.primitive) for _, end in ends]
+        for (label, end), primitive, other in zip(ends, resolved, reversed(resolved), strict=True):
+            assert primitive is not None and other is not None, end  # elaboration resolved them
             part = index[end.part]
-            primitive = parts[part].spec.primitive(end.primitive)
-            assert primitive is not None, end  # elaboration resolved every endpoint
             primitive = _twisting(primitive, connection, label, loops)
+            if turning_on_rods:
+                primitive = _turning_on_a_rod(primitive, other)
             start = len(variables)
             for dof in primitive.dofs:
                 variables.append(DofVariable(f"{end.part}.{end.primitive}.{dof.name}", dof, j, label))
@@ -833,6 +844,7 @@ def _assemble(program: FlatProgram, parts: tuple[PartInstance, ...], loops: bool
         standing,
         written=written,
         turn_limits=together,
+        turning_on_rods=turning_on_rods,
     )
 
 
@@ -853,6 +865,30 @@ def _twisting(primitive: Primitive, connection: Connection, label: str, loops: b
     if any(s.side == label and s.dof == "phi" for s in connection.settings):
         return primitive
     flags = {**primitive.flags, "flex": False}
+    return make_primitive(
+        primitive.name, primitive.kind, primitive.params, flags, primitive.position, primitive.rotation
+    )
+
+
+PLAIN_LOOPS = ("Hook", "Ring")  # hooks and rings that do not say `flex`
+
+
+def _turning_on_a_rod(primitive: Primitive, other: Primitive) -> Primitive:
+    """A plain hook or ring (no `flex`) round a rod with the turn about the line
+    of its contact that a flexing one has (its `phi`, as far as its wire jams
+    on the rod, `primitives.yaw_jam_deg`; none where it grips the rod). A rod
+    touching a wire at a point turns so; the reference keeps the loop square
+    round the rod, and in a loop the contact may then carry a moment about
+    that line that a point cannot (E514): a flag stick laid in two ceiling
+    hooks, one turned 30 degrees, was held diagonal, up the turned hook's
+    side, where the real stick lies in both hooks' bottoms. Only where the
+    solver finds that (`solve._with_rods_turning`): elsewhere the turn carries
+    nothing (without loops the weight's line is the contact's) and, given to
+    every such hook, it cost the reading nook, balanced on knife edges, 20 s
+    instead of 2 for the same not-at-rest result."""
+    if primitive.variant not in PLAIN_LOOPS or other.variant not in TILTING:
+        return primitive
+    flags = {**primitive.flags, "flex": True}
     return make_primitive(
         primitive.name, primitive.kind, primitive.params, flags, primitive.position, primitive.rotation
     )

@@ -234,6 +234,11 @@ def solve(model: Model, options: SolveOptions, loop_start: Array | None = None) 
     first = _solve_once(model, options, loop_start)
     # without gravity, or from a continued start, one try: the member's own solve makes the others
     one_try = not options.gravity or options.start is not None
+    if model.closures and not model.turning_on_rods and not one_try:
+        if any(isinstance(fall, Swivel) for fall in first.falls):
+            turning = _with_rods_turning(model, options, loop_start)
+            if turning is not None:
+                return turning
     jammed = _jammed_rings(model, first) if first.status == "solved" and not one_try else []
     if jammed:
         first = _untwisted(model, options, first, jammed)
@@ -344,6 +349,66 @@ def _suspect_connections(model: Model, result: Solution, aligned: bool) -> list[
     return connections[:TURNS_TRIED]
 
 
+# degrees: a plain hook or ring turned less than this on its rod rests square
+SQUARE_DEG = 1.0
+
+
+def _with_rods_turning(model: Model, options: SolveOptions, loop_start: Array | None) -> Solution | None:
+    """A hack with loops whose result needs a rod that a plain hook or ring
+    holds square to carry what a contact at a point cannot (E514): solved
+    again (the whole `solve`) with every plain hook and ring round a rod free
+    to turn about the line of its contact (`model._turning_on_a_rod`), from
+    the loops' closing start with those turns square (it closes them still;
+    step 1 alone let a stick's loop come open), with the loops' play kept;
+    that result where it hangs at rest, N508 saying which turned most (none
+    where all rest square: the square model's start was at fault). None
+    where it does not hang at rest either."""
+    turning = build_model(model.program, turning_on_rods=True)
+    if loop_start is not None:
+        loop_start = _same_values(model, turning, loop_start)
+        if model.closure_play:
+            turning = turning.with_play(loop_start)
+    options.report("a rod would turn on its contact: solving again with hooks and rings turning on rods")
+    result = solve(turning, options, loop_start)
+    if result.status != "solved":
+        return None
+    angle, joint = max(_rod_turns(model, turning, result.x), key=lambda turn: turn[0], default=(0.0, None))
+    if joint is None or angle < SQUARE_DEG:
+        return result
+    note = Diagnostic(
+        Severity.NOTE,
+        "N508",
+        f"turned: `{joint.connection.a} -- {joint.connection.b}` rests with the hook or ring turned "
+        f"{angle:.0f} degrees about the line of its contact with the rod; held square, as the reference "
+        "holds plain hooks and rings on rods, the hack needed a contact to carry what a point cannot (E514)",
+        joint.connection.span,
+        "build it so: the rod lies turned in the hook or ring as the result shows (--dofs lists each "
+        "turn, the loop's `phi`)",
+    )
+    return replace(result, diagnostics=(note, *result.diagnostics))
+
+
+def _same_values(model: Model, other: Model, x: Array) -> Array:
+    """x of `model` as a DoF vector of `other`, a model of the same program
+    with more DoFs: each DoF of the same connection, side and name as in x,
+    the others at their defaults."""
+    at = {(v.joint, v.side, v.dof.name): value for v, value in zip(model.variables, x, strict=True)}
+    return np.array([at.get((v.joint, v.side, v.dof.name), v.dof.default) for v in other.variables])
+
+
+def _rod_turns(model: Model, turning: Model, x: Array) -> list[tuple[float, Joint]]:
+    """(degrees from square, connection) of each turn `turning` gave a plain
+    hook or ring that `model` holds square on its rod, at x (of `turning`)."""
+    return [
+        (abs(float(x[i]) - turning.variables[i].dof.default), joint)
+        for square, joint in zip(model.joints, turning.joints, strict=True)
+        for before, side in ((square.a, joint.a), (square.b, joint.b))
+        if before.primitive.variant != side.primitive.variant
+        for i in side.dof_indices
+        if turning.variables[i].dof.name == "phi"
+    ]
+
+
 def _turned(model: Model, connection: Connection) -> Model:
     """The design with `connection` turned over (`flip` toggled)."""
     turned = replace(connection, flip=not connection.flip)
@@ -351,7 +416,7 @@ def _turned(model: Model, connection: Connection) -> Model:
         model.program,
         connections=tuple(turned if c is connection else c for c in model.program.connections),
     )
-    return build_model(program)
+    return build_model(program, model.turning_on_rods)
 
 
 def _solved_turned(

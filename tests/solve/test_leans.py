@@ -215,39 +215,113 @@ target handle.rod1 at (0, 0, 1419) rot (0, 90, 0)
 """
 
 
-def test_a_grip_wedged_across_a_hooks_side_is_not_at_rest(tmp_path: Path) -> None:
-    """From its first start the settle leaves the grip across the hook's ring
-    at its side (c.hook.theta 30, the ring's bottom being 120), tilted to its
-    jam (cos b = r / p = 3 / 22.5: b = 82.34 degrees): a rod spanning the
-    ring from side to side, touching it at two points whose normals are
-    horizontal. The model's contact, kept square round the rod, makes the
-    whole a pendulum about the ring's centre, and the result was `solved`.
-    Two pushes square to the rod at the ring's sides cannot hold a weight;
-    the contact carries the whole weight, (67.3 + 103.0) g x 9.81 = 1.6706
-    N, along the wire, and, the weight hanging under the ring's centre, 22.5
-    sin b = 22.30 mm beside the contact (the ring's inner line) across the
-    line of the contact: 1.6706 x 22.30 = 37.25 N mm about it. Now E514, not
-    at rest. Tolerances: 0.01 N and 0.5 N mm (the settle's leftover 1e-3 of
-    the weight, the mesh's centre of mass off the hook's axis by a fraction
-    of a millimetre); the normal within 0.2 of horizontal."""
-    import math
-
+def test_a_grip_held_up_a_hooks_side_is_not_at_rest(tmp_path: Path) -> None:
+    """A basket with a fixed handle, its grip's contact set at the ceiling
+    hook's ring's side (c.hook.theta 30, the ring's bottom being 120) and 0.2
+    along the grip: the contact's normal there is horizontal, and a push
+    across a rod and a wire at a point cannot hold a weight. The model holds
+    the hook square round the grip, and the result was `solved`, the grip
+    tilted to its jam across the ring. Its contact carries the whole weight,
+    109 g x 9.81 = 1.0693 N, along the wire and, the weight acting under the
+    grip's middle (0.5 - 0.2) x 153 = 45.9 mm along the grip from the contact
+    (the grip horizontal, square to the normal), 1.0693 x 45.9 = 49.08 N mm
+    about the line of the contact: E514, not at rest. Tolerances: 0.01 N and
+    0.5 N mm (the settle's leftover 1e-3 of the weight; the mesh's centre of
+    mass under the grip's middle to a fraction of a millimetre)."""
     from fabhal.solve.falls import Swivel
-    from fabhal.solve.forces import contact_normals, square_loops
 
-    result = solve_text(tmp_path, GRIP_IN_A_CEILING_HOOK)
+    text = (
+        "environment c = CeilingHook() at (0, 0, 1500)\n"
+        "basket = HandleBasket()\n"
+        "connect basket.rod -- c.hook set (c.hook.theta: 30, basket.rod.t: 0.2)\n"
+        "target basket.rod at (0, 0, 1419)\n"
+    )
+    result = solve_text(tmp_path, text)
     assert result.status == "not_at_rest"
     (said,) = [d for d in result.diagnostics if d.code == "E514"]
-    assert said.span is not None and said.span.line == 4 and "37.3 N mm" in said.message
+    assert said.span is not None and said.span.line == 3 and "49.1 N mm" in said.message
     (swivel,) = [fall for fall in result.solution.falls if isinstance(fall, Swivel)]
-    assert swivel.rod == "handle.rod1" and swivel.loop == "c.hook" and not swivel.others
-    weight = (67.3 + 103.0) / 1000.0 * 9.81
+    assert swivel.rod == "basket.rod" and swivel.loop == "c.hook" and not swivel.others
+    weight = 0.109 * 9.81
     assert swivel.along == pytest.approx(weight, abs=0.01)
-    assert swivel.moment == pytest.approx(weight * 22.5 * math.sin(math.acos(3.0 / 22.5)), abs=0.5)
+    assert swivel.moment == pytest.approx(weight * 0.3 * 153.0, abs=0.5)
+
+
+def test_a_grip_in_a_loop_turns_in_the_hook_and_rests_in_its_bottom(tmp_path: Path) -> None:
+    """A basket on its loose wire handle (the handle and basket a loop: the
+    basket's two rings on the handle's two stubs), hung by the grip from a
+    ceiling hook. Held square in the hook, from its first start the settle
+    left the grip wedged across the ring at its side, tilted to its jam, a
+    pendulum about the ring's centre, `solved`; the weight, (67.3 + 103.0) g
+    x 9.81 = 1.67 N, carried along the wire (E514). Solved again with the
+    hook free to turn on the grip about the line of their contact (N508),
+    it rests in the ring's bottom (theta 120, the contact's normal vertical)
+    and, turning costing nothing there, the aim turns the grip towards the
+    request (square to the hook's plane: 90 degrees from square) as far as
+    the hook's wire jams on the 3 mm grip, cos^2 b = 3 / 22.5: b = 68.58
+    degrees; the grip hangs where asked (0 mm: it is in the ring's bottom)
+    and 90 - 68.58 = 21.42 degrees from the requested rotation. Tolerances:
+    0.5 mm, 0.1 degrees (the jam is the bound), 0.5 degrees round the ring
+    (the settle's rest)."""
+    import math
+
+    result = solve_text(tmp_path, GRIP_IN_A_CEILING_HOOK)
+    assert result.status == "solved", [d.message for d in result.diagnostics]
+    (note,) = [d for d in result.diagnostics if d.code == "N508"]
+    assert note.span is not None and note.span.line == 4 and "turned 69 degrees" in note.message
     solution = result.solution
-    grip = [loop for loop in square_loops(solution.model) if loop.joint == swivel.joint]
-    (normal,) = contact_normals(solution.model, solution.x, grip)
-    assert abs(normal[2]) < 0.2
+    names = [v.name for v in solution.model.variables]
+    assert solution.x[names.index("c.hook.theta")] == pytest.approx(120.0, abs=0.5)
+    jam = math.degrees(math.acos(math.sqrt(3.0 / 22.5)))
+    turn = abs(solution.x[names.index("c.hook.phi")] - 90.0)
+    assert turn == pytest.approx(jam, abs=0.1)
+    position, rotation = solution.target_errors()
+    assert position < 0.5 and rotation == pytest.approx(90.0 - jam, abs=0.1)
+
+
+# a flag stick (a 12.7 mm dowel, 280 mm) laid in two ceiling hooks 200 mm apart along y,
+# the second 30 mm higher and turned 30 degrees about the vertical
+STICK_IN_A_TURNED_HOOK = """\
+environment c1 = CeilingHook() at (0, -100, 1500)
+environment c2 = CeilingHook() at (0, 100, 1530) rot (0, 0, 30)
+stick = FlagRod()
+connect stick.rod -- c1.hook
+connect stick.rod -- c2.hook
+target stick.rod at (0, 0, 1440) rot (90, 0, 0)
+"""
+
+
+def test_a_stick_lies_in_a_turned_hook_turned_on_its_wire(tmp_path: Path) -> None:
+    """The hooks' rings' inside bottoms lie under their screws (a turn about
+    the vertical does not move them): 1500 - 61.5 - 22.5 = 1416.0 at y =
+    -100 and 1446.0 at y = 100; the stick lies in both, its axis 6.35 above:
+    at y = 0, 1437.35 mm, sloping atan(30 / 200) = 8.53 degrees (friction
+    holds it below atan 0.3 = 16.7), and lies in the turned hook turned 30
+    degrees on its wire about the line of the contact (its jam: cos^2 b =
+    6.35 / 22.5, 57.9). Held square in both hooks (the reference), the loop
+    closed only with the stick up the turned hook's side, diagonal, not at
+    rest (E514); now it is solved, N508 naming the turned hook. Tolerances:
+    0.5 mm (the contacts' give), 0.1 degrees on the slope, 1 degree on the
+    turn (measured in the sloping stick's frame), 0.5 degrees round the
+    square hook's ring from its bottom (120: the stick crosses it square in
+    plan, its section in the ring's plane an upright ellipse) and 3 round the
+    turned one's (there the section is an ellipse tilted 16.6 degrees, whose
+    lowest point lies beside its centre: measured 122.5)."""
+    result = solve_text(tmp_path, STICK_IN_A_TURNED_HOOK)
+    assert result.status == "solved", [d.message for d in result.diagnostics]
+    (note,) = [d for d in result.diagnostics if d.code == "N508"]
+    assert note.span is not None and note.span.line == 5 and "turned 30 degrees" in note.message
+    solution = result.solution
+    stick = solution.frames[solution.model.part_index("stick")]
+    axis, middle = stick[:3, 2], (stick @ np.array([0.0, 0.0, 140.0, 1.0]))[:3]
+    crossing = middle - middle[1] / axis[1] * axis  # where the axis crosses y = 0
+    assert crossing[2] == pytest.approx(1437.35, abs=0.5)
+    assert np.degrees(np.arcsin(abs(axis[2]))) == pytest.approx(np.degrees(np.arctan(30.0 / 200.0)), abs=0.1)
+    names = [v.name for v in solution.model.variables]
+    assert abs(solution.x[names.index("c2.hook.phi")] - 90.0) == pytest.approx(30.0, abs=1.0)
+    assert abs(solution.x[names.index("c1.hook.phi")] - 90.0) < 1.0
+    assert solution.x[names.index("c1.hook.theta")] == pytest.approx(120.0, abs=0.5)
+    assert solution.x[names.index("c2.hook.theta")] == pytest.approx(120.0, abs=3.0)
 
 
 def test_a_grip_in_the_bottom_of_a_hook_carries_its_load_through_the_contact(tmp_path: Path) -> None:
