@@ -39,8 +39,8 @@ from typing import TypeVar
 import numpy as np
 from numpy.typing import NDArray
 
-from fabhal.kinematics.contact import DistanceGrid, penalty
-from fabhal.kinematics.frames import Array, angular_velocities
+from fabhal.kinematics.contact import DistanceGrid, PointCells, penalty
+from fabhal.kinematics.frames import Array, angular_velocities, invert
 from fabhal.library import PartSpec
 from fabhal.meshes import contact_grid, contact_points, hull_grid, inside_bounds, near_primitive
 from fabhal.model import Forward, Joint, Model
@@ -115,6 +115,14 @@ class Pair:
         an environment's read smooth (fabhal/kinematics/contact.py)."""
         grid = (hull_grid if self.hull else contact_grid)(self.shape, self.building)
         return _smooth_grid(grid) if self.environment else grid
+
+    @cached_property
+    def point_cells(self) -> PointCells:
+        return PointCells.of(self.points)
+
+    @cached_property
+    def check_cells(self) -> PointCells:
+        return PointCells.of(self.check)
 
     def with_check(self, added: Index) -> Pair:
         """The pair with the check's points `added` (indices into `check`) joining
@@ -374,59 +382,111 @@ def _reach(primitive: Primitive) -> float:
     return sizes.get(primitive.kind, 0.0) + CONNECTION_CLEARANCE_MM
 
 
-def _distances(
-    fwd: Forward, pairs: Pairs, groups: list[list[int]], check: bool = False
-) -> list[tuple[Array, Array, Array]]:
+# a part with this many points or more (a mug's 8,500) moves only those of its cubes near
+# the obstacle's box (`PointCells`); fewer (an S-hook's 64) all at once, which costs less
+CELLS_FROM = 3000
+
+
+def _in_box(points: Array, part: Array, obstacle: Array, box: Array) -> tuple[Array, Array, Index]:
+    """Of `points` of a part at G places `part` (G, 4, 4), against its
+    obstacles at `obstacle` (G, 4, 4): those within the obstacles' `box`
+    (2, 3) in the obstacle's frame, in the world (M, 3) and in the
+    obstacle's frame (M, 3), with their indices into the G x N points (M,),
+    ascending."""
+    # row vectors: p_world = R p + o is p @ R^T + o, and p_local = (p_world - o) @ R
+    world = (points @ part[:, :3, :3].transpose(0, 2, 1) + part[:, None, :3, 3]).reshape(-1, 3)
+    local = ((world.reshape(len(part), -1, 3) - obstacle[:, None, :3, 3]) @ obstacle[:, :3, :3]).reshape(
+        -1, 3
+    )
+    boxed = np.flatnonzero(((local >= box[0]) & (local <= box[1])).all(axis=1))
+    return world[boxed], local[boxed], boxed
+
+
+def _in_box_by_cells(
+    points: Array, cells: PointCells, part: Array, obstacle: Array, box: Array
+) -> tuple[Array, Array, Index]:
+    """`_in_box`, moving only the points of the cubes near the box
+    (`PointCells.near_box`), by the same arithmetic."""
+    near = cells.near_box(invert(obstacle) @ part, box[0], box[1])
+    found: list[tuple[Array, Array, Index]] = []
+    for row, (moved, frame) in enumerate(zip(part, obstacle, strict=True)):
+        candidates = np.flatnonzero(near[row])
+        world = points[candidates] @ moved[:3, :3].T + moved[:3, 3]
+        local = (world - frame[:3, 3]) @ frame[:3, :3]
+        within = ((local >= box[0]) & (local <= box[1])).all(axis=1)
+        found.append((world[within], local[within], row * len(points) + candidates[within]))
+    world, local, boxed = (np.concatenate(column) for column in zip(*found, strict=True))
+    return world, local, boxed
+
+
+@dataclass(frozen=True)
+class Looked:
+    """A group's points looked up in its obstacle (`_distances`): for each,
+    its row in the group and its index among the part's points (M,), where
+    it is (world, (M, 3)), its signed distance (M,) and the distance's
+    gradient (world, (M, 3); only where it is negative, and never for the
+    check's points). Every other point is outside."""
+
+    row: Index
+    point: Index
+    world: Array
+    distance: Array
+    gradient: Array
+
+
+def _distances(fwd: Forward, pairs: Pairs, groups: list[list[int]], check: bool = False) -> list[Looked]:
     """For each group of pairs of one kind (the same points against the same
-    grid, `_kinds`): their points (the check's if `check`) in the world (G,
-    N, 3), their signed distances from the obstacle (G, N; +inf where not
-    looked up) and the distances' gradients in the world (G, N, 3; only where
-    the distance is negative, and never for the check's points). The
-    groups that look at one grid look it up together (the caddy's S-hooks and
-    the caddy against the seat backs: one look-up, not two; each look-up
-    costs as much as its points)."""
+    grid, `_kinds`), its points (the check's if `check`) that may be inside
+    the obstacle, looked up (`Looked`): only points within the obstacle's
+    box, and read from a sample inside (`could_be_inside`), can be inside
+    it. The groups that look at one grid look it up together (the caddy's
+    S-hooks and the caddy against the seat backs: one look-up, not two;
+    each look-up costs as much as its points)."""
     frames = fwd.frames
-    looked: list[tuple[Array, Array, Array, Index]] = []  # world, local (flat), obstacle frames, boxed
+    boxed: list[tuple[Array, Array, Index, int]] = []  # world, local, index into G x N, N
     for group in groups:
         first = pairs.pairs[group[0]]
         part, obstacle = frames[pairs.parts[group]], frames[pairs.obstacles[group]]
-        # row vectors: p_world = R p + o is p @ R^T + o, and p_local = (p_world - o) @ R
-        points = first.check if check else first.points
-        world = points @ part[:, :3, :3].transpose(0, 2, 1) + part[:, None, :3, 3]
-        flat = ((world - obstacle[:, None, :3, 3]) @ obstacle[:, :3, :3]).reshape(-1, 3)
-        # only points within the obstacle's box, and read from a sample inside
-        # (`could_be_inside`), can be inside it: the rest are not looked up (their distances stay +inf)
-        low, high = first.box
-        looked.append((world, flat, obstacle, np.flatnonzero(((flat >= low) & (flat <= high)).all(axis=1))))
-    distances = [np.full(len(flat), np.inf) for _, flat, _, _ in looked]
-    gradients = [np.zeros((len(flat), 3)) for _, flat, _, _ in looked]
+        points, cells = (first.check, first.check_cells) if check else (first.points, first.point_cells)
+        if len(points) < CELLS_FROM:
+            boxed.append((*_in_box(points, part, obstacle, first.box), len(points)))
+        else:
+            boxed.append((*_in_box_by_cells(points, cells, part, obstacle, first.box), len(points)))
+    looked: list[Looked] = [_nothing_looked()] * len(groups)
     by_grid: dict[int, list[int]] = {}
     for g, group in enumerate(groups):
-        if len(looked[g][3]):  # most look-ups (a part near an obstacle's ball, outside its box)
+        if len(boxed[g][2]):  # most look-ups (a part near an obstacle's ball, outside its box)
             by_grid.setdefault(id(pairs.pairs[group[0]].grid), []).append(g)
     for members in by_grid.values():
         grid = pairs.pairs[groups[members[0]][0]].grid
-        boxed = np.concatenate([looked[g][1][looked[g][3]] for g in members])
-        owner = np.repeat(members, [len(looked[g][3]) for g in members])
-        index = np.concatenate([looked[g][3] for g in members])
-        near = grid.could_be_inside(boxed)
+        local = np.concatenate([boxed[g][1] for g in members])
+        owner = np.repeat(members, [len(boxed[g][2]) for g in members])
+        near = grid.could_be_inside(local)
         if check:  # the check asks how deep, never the way out
-            found, slopes = grid.distance(boxed[near]), np.zeros((int(near.sum()), 3))
+            found, slopes = grid.distance(local[near]), np.zeros((int(near.sum()), 3))
         else:
-            found, slopes = grid.sample_inside(boxed[near])
-        owner, index = owner[near], index[near]
+            found, slopes = grid.sample_inside(local[near])
+        owner = owner[near]
+        start = 0
         for g in members:
+            world, _, index, count = boxed[g]
+            kept = near[start : start + len(index)]
+            start += len(index)
             mine = owner == g
-            distances[g][index[mine]] = found[mine]
-            gradients[g][index[mine]] = slopes[mine]
-    return [
-        (
-            world,
-            distance.reshape(len(world), -1),
-            gradient.reshape(len(world), -1, 3) @ obstacle[:, :3, :3].transpose(0, 2, 1),
-        )
-        for (world, _, obstacle, _), distance, gradient in zip(looked, distances, gradients, strict=True)
-    ]
+            row, point = np.divmod(index[kept], count)
+            # each gradient into the world by its row's obstacle's rotation: g @ R^T
+            rotations = frames[pairs.obstacles[groups[g]], :3, :3]
+            gradient = np.zeros((len(row), 3))
+            for r in np.unique(row):
+                same = row == r
+                gradient[same] = slopes[mine][same] @ rotations[r].T
+            looked[g] = Looked(row, point, world[kept], found[mine], gradient)
+    return looked
+
+
+def _nothing_looked() -> Looked:
+    none = np.zeros(0, dtype=np.intp)
+    return Looked(none, none, np.zeros((0, 3)), np.zeros(0), np.zeros((0, 3)))
 
 
 @dataclass(frozen=True)
@@ -482,12 +542,12 @@ def _kinds(pairs: Pairs, fwd: Forward, check: bool = False) -> list[list[int]]:
 def _look_inside(model: Model, fwd: Forward, pairs: Pairs) -> Touching:
     found: list[tuple[Array, Array, Array, Array]] = []
     groups = _kinds(pairs, fwd)
-    for group, (world, distance, normal) in zip(groups, _distances(fwd, pairs, groups), strict=True):
-        inside = distance < 0.0
+    for group, looked in zip(groups, _distances(fwd, pairs, groups), strict=True):
+        inside = looked.distance < 0.0
         if not inside.any():  # the usual answer: nothing to gather
             continue
-        which = np.broadcast_to(np.array(group)[:, None], inside.shape)[inside]
-        found.append((which, world[inside], -distance[inside], normal[inside]))
+        which = np.array(group)[looked.row[inside]]
+        found.append((which, looked.world[inside], -looked.distance[inside], looked.gradient[inside]))
     if not found:
         return Touching(np.zeros(0, dtype=int), np.zeros((0, 3)), np.zeros(0), np.zeros((0, 3)))
     which, world, depth, normal = (np.concatenate(column) for column in zip(*found, strict=True))
@@ -642,13 +702,15 @@ def _look_finely(fwd: Forward, pairs: Pairs) -> Checked:
     depth, on_surface = np.zeros(len(pairs)), np.zeros(len(pairs))
     deep: dict[int, Array] = {}
     groups = _kinds(pairs, fwd, check=True)
-    for group, (_, distance, _) in zip(groups, _distances(fwd, pairs, groups, check=True), strict=True):
+    for group, looked in zip(groups, _distances(fwd, pairs, groups, check=True), strict=True):
         for row, k in enumerate(group):
-            inside = -distance[row]
+            mine = looked.row == row
+            inside, point = -looked.distance[mine], looked.point[mine]  # every other point is outside
             depth[k] = max(0.0, float(inside.max(initial=0.0)))
-            on_surface[k] = float(np.mean(np.abs(inside) <= COINCIDE_MM)) if len(inside) else 0.0
+            points = len(pairs.pairs[k].check)
+            on_surface[k] = float(np.count_nonzero(np.abs(inside) <= COINCIDE_MM)) / points if points else 0.0
             if depth[k] > REFINE_DEPTH_MM:
-                deep[k] = pairs.pairs[k].check[inside > REFINE_DEPTH_MM]
+                deep[k] = pairs.pairs[k].check[point[inside > REFINE_DEPTH_MM]]
     return Checked(depth, deep, on_surface)
 
 

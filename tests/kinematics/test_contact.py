@@ -229,3 +229,29 @@ def test_two_rectangles_overlap_by_the_least_of_their_shadows() -> None:
     c = np.sqrt(0.5)
     diamond = np.array([[c, c, 0.0], [-c, c, 0.0]])
     assert overlap(38.5 + 38.5 * np.sqrt(2.0) + 1.0, diamond) == pytest.approx(-1.0)
+
+
+def test_point_cells_keep_every_point_that_lies_in_the_box() -> None:
+    """Points gathered into cubes (`PointCells`), moved by random rigid
+    motions against a box: every point that lands in the box belongs to a
+    cube `near_box` keeps (its ball, the cube's points' centre and farthest
+    distance, carried by the same motion, reaches the box), and the cubes
+    kept are few where the box is small beside the points (the reason to
+    have them). Each cube's ball holds its points."""
+    from fabhal.kinematics.contact import PointCells
+    from fabhal.kinematics.frames import frame_matrix
+
+    rng = np.random.default_rng(7)
+    points = rng.normal(scale=60.0, size=(5000, 3))
+    cells = PointCells.of(points)
+    which = np.repeat(np.arange(len(cells.counts)), cells.counts)
+    owner = np.empty(len(points), dtype=int)
+    owner[cells.order] = which
+    assert np.all(np.linalg.norm(points - cells.centres[owner], axis=1) <= cells.radii[owner] + 1e-9)
+    low, high = np.array([-20.0, -10.0, -15.0]), np.array([25.0, 30.0, 5.0])
+    motions = np.array([frame_matrix(rng.uniform(-50, 50, 3), rng.uniform(-180, 180, 3)) for _ in range(20)])
+    near = cells.near_box(motions, low, high)
+    moved = points @ motions[:, :3, :3].transpose(0, 2, 1) + motions[:, None, :3, 3]
+    inside = ((moved >= low) & (moved <= high)).all(axis=2)
+    assert inside.any() and np.all(near[inside])
+    assert near.mean() < 0.5

@@ -18,7 +18,7 @@ from fabhal import api
 from fabhal.meshes import contact_grid, contact_points, mass_properties, primitive_mesh
 from fabhal.solve import Solution, step_one
 from fabhal.solve import target as target_mod
-from fabhal.solve.contacts import Contact, Pairs, _distances, _kinds, contact_pairs, wires_crossed
+from fabhal.solve.contacts import Contact, Looked, Pairs, _distances, _kinds, contact_pairs, wires_crossed
 from fabhal.solve.forces import weight_newtons
 from fabhal.solve.steps import fit_target, taken_apart
 from tests.conftest import REPO
@@ -41,9 +41,9 @@ def deepest(solution: Solution) -> dict[str, float]:
     depth: dict[str, float] = {}
     pairs = contact_pairs(model)
     for k, pair in enumerate(pairs.pairs):
-        distance = _distances(fwd, pairs, [[k]], check=True)[0][1][0]
+        distance = _distances(fwd, pairs, [[k]], check=True)[0].distance  # the points looked up
         name = model.parts[pair.part].name
-        depth[name] = max(depth.get(name, 0.0), float(max(0.0, -distance.min())))
+        depth[name] = max(depth.get(name, 0.0), float(max(0.0, -distance.min(initial=np.inf))))
     return depth
 
 
@@ -52,8 +52,9 @@ def test_the_pairs_looked_at_are_those_whose_balls_meet_and_far_ones_read_outsid
     whose bounding balls meet (distance of the centres, each carried by its
     part's frame, at most the sum of the radii: written out here) is looked at,
     and no other; a pair looked at whose points all lie outside the obstacle's
-    box reads +inf distances and zero gradients for every point (the quick
-    exit), as a pair reads where no point is near."""
+    box looks up none of them (the quick exit), as a pair where no point is
+    near; of those looked up, each is one of the pair's points, once, and has
+    a gradient only where it is inside."""
     solution = solved("paper_towel_holder.fhl")
     model = solution.model
     fwd = model.forward(solution.x, with_twists=True)
@@ -67,12 +68,13 @@ def test_the_pairs_looked_at_are_those_whose_balls_meet_and_far_ones_read_outsid
             meet.append(k)
     assert pairs.near(frames).tolist() == meet and meet
     for k in meet:
-        ((world, distance, gradient),) = _distances(fwd, pairs, [[k]])
-        points = len(pairs.pairs[k].points)
-        assert world.shape == gradient.shape == (1, points, 3) and distance.shape == (1, points)
-        outside = ~np.isfinite(distance[0])
-        assert np.all(gradient[0][outside] == 0.0)
-    assert any(np.isfinite(_distances(fwd, pairs, [[k]])[0][1]).any() for k in meet)  # the wall is looked up
+        (looked,) = _distances(fwd, pairs, [[k]])
+        count = len(looked.point)
+        assert looked.world.shape == looked.gradient.shape == (count, 3) and looked.distance.shape == (count,)
+        assert np.all(looked.row == 0) and len(np.unique(looked.point)) == count
+        assert np.all(looked.point < len(pairs.pairs[k].points)) and np.isfinite(looked.distance).all()
+        assert np.all(looked.gradient[looked.distance >= 0.0] == 0.0)
+    assert any(len(_distances(fwd, pairs, [[k]])[0].point) for k in meet)  # the wall is looked up
 
 
 def test_groups_on_one_grid_look_it_up_together_with_the_same_answer() -> None:
@@ -92,9 +94,14 @@ def test_groups_on_one_grid_look_it_up_together_with_the_same_answer() -> None:
         together = _distances(fwd, pairs, groups, check)
         for group, batched in zip(groups, together, strict=True):
             (alone,) = _distances(fwd, pairs, [group], check)
-            for mine, its in zip(batched, alone, strict=True):
-                assert np.array_equal(mine, its)
-        assert any(np.isfinite(distance).any() for _, distance, _ in together)
+            assert same_looked(batched, alone)
+        assert any(len(looked.distance) for looked in together)
+
+
+def same_looked(one: Looked, other: Looked) -> bool:
+    """The same points looked up, with the same answers, to the bit."""
+    fields = ("row", "point", "world", "distance", "gradient")
+    return all(np.array_equal(getattr(one, name), getattr(other, name)) for name in fields)
 
 
 def held_by_the_environment(solution: Solution) -> np.ndarray:
@@ -1024,3 +1031,33 @@ def test_a_given_start_is_taken_apart_where_it_crosses_and_kept_where_not(tmp_pa
     apart = taken_apart(step1, goal, start, pairs).v
     assert not wires_crossed(model, step1.full(apart), pairs)
     np.testing.assert_array_equal(taken_apart(step1, goal, apart, pairs).v, apart)
+
+
+def test_a_large_part_moves_only_its_points_near_the_box_with_the_same_answer(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Two mugs (8,500 points each) resting on each other on a short rod.
+    Moving only the points of the cubes whose balls reach an obstacle's box
+    (`PointCells`) looks up exactly the points, with exactly the answers (to
+    the bit), that moving them all does: a point in the box lies in such a
+    cube, and each point is moved by the same arithmetic. In the settle's
+    points and the check's; some of them inside the other mug."""
+    from fabhal.solve import contacts
+
+    solution = two_mugs(tmp_path).solution
+    assert solution is not None
+    model = solution.model
+    fwd = model.forward(solution.x)
+    mugs = frozenset({model.part_index("m1"), model.part_index("m2")})
+    pairs = contact_pairs(model).dense(frozenset({mugs}))  # every check point too, as the settle has them
+    for check in (False, True):
+        groups = _kinds(pairs, fwd, check)
+        sizes = [len(pairs.pairs[g[0]].check if check else pairs.pairs[g[0]].points) for g in groups]
+        assert max(sizes) >= contacts.CELLS_FROM  # a large part is among them
+        monkeypatch.setattr(contacts, "CELLS_FROM", 0)
+        by_cells = _distances(fwd, pairs, groups, check)
+        monkeypatch.setattr(contacts, "CELLS_FROM", 10**9)
+        all_moved = _distances(fwd, pairs, groups, check)
+        monkeypatch.undo()
+        assert all(same_looked(a, b) for a, b in zip(by_cells, all_moved, strict=True))
+        assert any((looked.distance < 0.0).any() for looked in by_cells)
