@@ -48,8 +48,10 @@ class PointCells:
     @staticmethod
     def of(points: Array) -> PointCells:
         cube = np.floor(points / CELL_MM).astype(np.int64)
-        _, which, counts = np.unique(cube, axis=0, return_inverse=True, return_counts=True)
-        which = which.ravel()
+        cube -= cube.min(axis=0, initial=0)
+        span = cube.max(axis=0, initial=0) + 1
+        key = (cube[:, 0] * span[1] + cube[:, 1]) * span[2] + cube[:, 2]  # one number per cube
+        _, which, counts = np.unique(key, return_inverse=True, return_counts=True)
         centres = np.zeros((len(counts), 3))
         np.add.at(centres, which, points)
         centres /= counts[:, None]

@@ -447,10 +447,11 @@ def _distances(fwd: Forward, pairs: Pairs, groups: list[list[int]], check: bool 
     for group in groups:
         first = pairs.pairs[group[0]]
         part, obstacle = frames[pairs.parts[group]], frames[pairs.obstacles[group]]
-        points, cells = (first.check, first.check_cells) if check else (first.points, first.point_cells)
+        points = first.check if check else first.points
         if len(points) < CELLS_FROM:
             boxed.append((*_in_box(points, part, obstacle, first.box), len(points)))
         else:
+            cells = first.check_cells if check else first.point_cells  # gathered when first needed
             boxed.append((*_in_box_by_cells(points, cells, part, obstacle, first.box), len(points)))
     looked: list[Looked] = [_nothing_looked()] * len(groups)
     by_grid: dict[int, list[int]] = {}
