@@ -461,24 +461,23 @@ def _distances(fwd: Forward, pairs: Pairs, groups: list[list[int]], check: bool 
     for members in by_grid.values():
         grid = pairs.pairs[groups[members[0]][0]].grid
         local = np.concatenate([boxed[g][1] for g in members])
-        owner = np.repeat(members, [len(boxed[g][2]) for g in members])
         near = grid.could_be_inside(local)
         if check:  # the check asks how deep, never the way out
             found, slopes = grid.distance(local[near]), np.zeros((int(near.sum()), 3))
         else:
             found, slopes = grid.sample_inside(local[near])
-        owner = owner[near]
-        start = 0
-        for g in members:
+        start = done = 0
+        for g in members:  # their points were looked up one member after the other
             world, _, index, count = boxed[g]
             kept = near[start : start + len(index)]
             start += len(index)
-            mine = owner == g
+            mine = slice(done, done + int(np.count_nonzero(kept)))
+            done = mine.stop
             row, point = np.divmod(index[kept], count)
             # each gradient into the world by its row's obstacle's rotation: g @ R^T
             rotations = frames[pairs.obstacles[groups[g]], :3, :3]
-            gradient = np.zeros((len(row), 3))
-            for r in np.unique(row):
+            gradient = slopes[mine] @ rotations[0].T
+            for r in range(1, len(rotations)):
                 same = row == r
                 gradient[same] = slopes[mine][same] @ rotations[r].T
             looked[g] = Looked(row, point, world[kept], found[mine], gradient)
