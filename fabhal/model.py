@@ -864,10 +864,7 @@ def _twisting(primitive: Primitive, connection: Connection, label: str, loops: b
         return primitive
     if any(s.side == label and s.dof == "phi" for s in connection.settings):
         return primitive
-    flags = {**primitive.flags, "flex": False}
-    return make_primitive(
-        primitive.name, primitive.kind, primitive.params, flags, primitive.position, primitive.rotation
-    )
+    return _flexing(primitive, False)
 
 
 PLAIN_LOOPS = ("Hook", "Ring")  # hooks and rings that do not say `flex`
@@ -888,7 +885,12 @@ def _turning_on_a_rod(primitive: Primitive, other: Primitive) -> Primitive:
     instead of 2 for the same not-at-rest result."""
     if primitive.variant not in PLAIN_LOOPS or other.variant not in TILTING:
         return primitive
-    flags = {**primitive.flags, "flex": True}
+    return _flexing(primitive, True)
+
+
+def _flexing(primitive: Primitive, flex: bool) -> Primitive:
+    """The primitive with its `flex` flag set so (its variant, DoFs and frame formula with it)."""
+    flags = {**primitive.flags, "flex": flex}
     return make_primitive(
         primitive.name, primitive.kind, primitive.params, flags, primitive.position, primitive.rotation
     )

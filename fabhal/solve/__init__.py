@@ -1011,7 +1011,7 @@ def _wrenches(
     return connection_wrenches(model, x, masses, centres, carrying, loads, slack, also_free)
 
 
-def _turning_rings(
+def _held_by_the_model(
     problem: Problem,
     x: Array,
     masses: Array,
@@ -1019,54 +1019,41 @@ def _turning_rings(
     slides: list[Slide],
     contacts: tuple[Contact, ...],
     wrenches: Wrenches,
-) -> tuple[Turn, ...]:
-    """The welded rings that would turn about their wires at x (`falls.Turn`):
-    those whose moment about the wire in `wrenches` no contact carries, where
-    the statics with each ring's turn left free (`forces.about_the_wire`) no
-    longer balance the parts within the settle's slack (where they do, some
-    split of a loop's load needs no such moment: at rest). The rings' own
-    test first: on the gallery no ring needs one, and the second statics is
-    not made (it cost a clip light's solve 6-9 ms)."""
-    rings = welded_rings(problem.model)
+) -> tuple[Turn | Swivel, ...]:
+    """What the model's connections hold at x that real contacts could not:
+    welded rings that would turn about their wires (`falls.Turn`, E513) and
+    rods that plain hooks or rings hold square that would turn on their
+    contacts (`falls.Swivel`, E514). Each is found first in `wrenches`, the
+    statics as the model has it (a ring's moment about its wire over |f| w,
+    `falls.turns_about_wires`; a rod's contact carrying along the wire or
+    about the line of the contact, `falls.swivels`), then confirmed where the
+    statics with those turns left free (`forces.about_the_wire`,
+    `forces.about_the_normal`) no longer balance the parts within the
+    settle's slack (where they do, some split of a loop's load needs none:
+    at rest). On the gallery none is found in the model's own statics, and
+    the second statics is not made (it cost a clip light's solve 6-9 ms). A
+    rod hanging in the bottom of a loop carries its load through the
+    contact; one wedged across a loop's side, both contacts pushing
+    sideways, cannot. Not judged where a rod's contact sits at a closed end
+    of the rod: in the corner where a basket's handle bends down the loop's
+    wire touches the grip and the bend, more than the one contact modelled
+    (as a lean there is not, E509)."""
+    model = problem.model
     newtons = float(weight_newtons(masses).sum())
-    turns = turns_about_wires(problem.model, x, rings, wrenches, newtons) if rings else ()
-    if not turns:
-        return ()
-    freed = _wrenches(problem, x, masses, centres, slides, contacts, about_the_wire(problem.model, x, rings))
-    return turns if freed.imbalance > EQUILIBRIUM_TOLERANCE * newtons else ()
 
+    def unbalanced(free: tuple[Array, Array, Array]) -> bool:
+        freed = _wrenches(problem, x, masses, centres, slides, contacts, free)
+        return freed.imbalance > EQUILIBRIUM_TOLERANCE * newtons
 
-def _swivelling_rods(
-    problem: Problem,
-    x: Array,
-    masses: Array,
-    centres: Array,
-    slides: list[Slide],
-    contacts: tuple[Contact, ...],
-    wrenches: Wrenches,
-) -> tuple[Swivel, ...]:
-    """The rods in hooks or rings that would turn on their contacts at x
-    (`falls.Swivel`): those whose contact carries what a point cannot in
-    `wrenches` (`falls.swivels`), where the statics with each such loop's
-    turn about the line of its contact left free (`forces.about_the_normal`)
-    no longer balance the parts within the settle's slack (where they do,
-    some split of a loop's load needs no such moment: at rest). A rod hanging
-    in the bottom of a loop carries its load through the contact; a rod
-    wedged across a loop's side, where both contacts push sideways, cannot.
-    Not judged where the rod's contact sits at a closed end of the rod: in
-    the corner where a basket's handle bends down the loop's wire touches
-    the grip and the bend, more than the one contact modelled (as a lean
-    there is not, E509). The model's own statics first, as for the rings
-    (`_turning_rings`): on the gallery no rod needs the second."""
-    loops = [loop for loop in square_loops(problem.model) if not _at_a_closed_end(problem, x, loop.rod)]
-    newtons = float(weight_newtons(masses).sum())
-    found = swivels(problem.model, x, loops, wrenches, newtons) if loops else ()
-    if not found:
-        return ()
-    freed = _wrenches(
-        problem, x, masses, centres, slides, contacts, about_the_normal(problem.model, x, loops)
-    )
-    return found if freed.imbalance > EQUILIBRIUM_TOLERANCE * newtons else ()
+    rings = welded_rings(model)
+    turns = turns_about_wires(model, x, rings, wrenches, newtons) if rings else ()
+    if turns and not unbalanced(about_the_wire(model, x, rings)):
+        turns = ()
+    loops = [loop for loop in square_loops(model) if not _at_a_closed_end(problem, x, loop.rod)]
+    swivelling = swivels(model, x, loops, wrenches, newtons) if loops else ()
+    if swivelling and not unbalanced(about_the_normal(model, x, loops)):
+        swivelling = ()
+    return (*turns, *swivelling)
 
 
 def _settle(
@@ -1373,13 +1360,12 @@ def _settle_with(
     wrenches = _wrenches(step2, x, masses, centres, slides, contacts)
     tipping = (*topples(model, x, wrenches, set(at_bound)), *tips_off_its_feet(model, x, wrenches, weight))
     lifts = lifts_off(model, x, wrenches, masses)
-    turns = _turning_rings(step2, x, masses, centres, slides, contacts, wrenches)
-    swivelling = _swivelling_rods(step2, x, masses, centres, slides, contacts, wrenches)
+    held = _held_by_the_model(step2, x, masses, centres, slides, contacts, wrenches)
     return Settled(
         x,
         equilibrium,
         at_bound,
-        (*falls, *tipping, *lifts, *turns, *swivelling),
+        (*falls, *tipping, *lifts, *held),
         wrenches.forces,
         contacts,
         leaning,

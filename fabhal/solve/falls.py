@@ -180,7 +180,7 @@ def turns_about_wires(
     """The welded rings (`forces.welded_rings`) that would turn about their
     wires in `wrenches`, the statics as the model has it (the assembly weighing
     `newtons`): in a loop these are one split of the load among many, so the
-    caller confirms that no split needs the moments (`solve._turning_rings`).
+    caller confirms that no split needs the moments (`solve._held_by_the_model`).
     A ring turns where its moment about its wire's centre line,
     M = (m + w z x f) . y (m about the contact, w the wire's radius, y along
     the wire, z from the wire to what holds it), is more than |f| w: its force
@@ -230,7 +230,7 @@ def swivels(
     radius or along the wire (less is the rounding of a contact that carries
     nothing). Named for the one that carries most about the line, the others
     listed. In a loop these are one split of the load among many: the caller
-    confirms that no split needs them (`solve._swivelling_rods`)."""
+    confirms that no split needs them (`solve._held_by_the_model`)."""
     normals = contact_normals(model, x, loops)
     fwd = model.forward(x, with_twists=True)
     assert fwd.own_twists is not None
