@@ -40,6 +40,7 @@ from numpy.typing import NDArray
 from fabhal.kinematics.frames import Array
 from fabhal.model import Model
 from fabhal.optimize import least_squares_objective
+from fabhal.primitives import is_flex_angle
 from fabhal.solve import target as target_mod
 from fabhal.solve.energy import Energy
 from fabhal.solve.forces import friction_slides, slide_dofs
@@ -182,14 +183,18 @@ _stalled = partial(residual_stalled, steps=AIM_STALL_STEPS, gain_mm=AIM_GAIN_MM)
 
 def setting_text(model: Model, i: int, value: float, length: float) -> str:
     """A DoF's value as a builder sets it: along a primitive in mm (`length`: mm
-    per unit, steps.mm_per_unit); a tilt (a lean) from upright, a turn about a
-    rod or round a ring, in degrees."""
+    per unit, steps.mm_per_unit); a tilt (a lean) from upright, a flexing
+    hook's or ring's turn about the line of its contact from square, a turn
+    about a rod or round a ring, in degrees."""
     variable = model.variables[i]
     dof = variable.dof
     where = variable.name.rsplit(".", 1)[0]  # part.primitive
     if not dof.periodic and dof.high <= 1.0:
         return f"{value * length:.0f} mm along {where} (of {length:.0f}){_counted_from(model, i)}"
-    kind = model.side_of(i).primitive.kind
+    primitive = model.side_of(i).primitive
+    kind = primitive.kind
+    if is_flex_angle(dof, primitive.variant):  # a hook's or ring's turn on what it goes round
+        return f"turned {round(value - dof.default):+d} degrees on {where} about the line of its contact"
     if dof.lean:
         return f"tilted {round(value - dof.default):+d} degrees on {where}"  # never "-0"
     if dof.name == "theta" and kind in ("hook", "hole"):  # where along its arc or round its ring

@@ -4,12 +4,14 @@ unless the lean sits in the corner where its rod ends (a U-handle's bend)."""
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import numpy as np
 import pytest
 
 from fabhal import api
+from fabhal.solve.aim import setting_text
 from tests.conftest import REPO, written_in_reverse
 from tests.solve.test_physics import solve_text
 
@@ -318,7 +320,10 @@ def test_a_stick_lies_in_a_turned_hook_turned_on_its_wire(tmp_path: Path) -> Non
     assert crossing[2] == pytest.approx(1437.35, abs=0.5)
     assert np.degrees(np.arcsin(abs(axis[2]))) == pytest.approx(np.degrees(np.arctan(30.0 / 200.0)), abs=0.1)
     names = [v.name for v in solution.model.variables]
-    assert abs(solution.x[names.index("c2.hook.phi")] - 90.0) == pytest.approx(30.0, abs=1.0)
+    turned = names.index("c2.hook.phi")
+    assert abs(solution.x[turned] - 90.0) == pytest.approx(30.0, abs=1.0)
+    said = setting_text(solution.model, turned, float(solution.x[turned]), 1.0)  # as --dofs says it
+    assert re.fullmatch(r"turned [+-]30 degrees on c2\.hook about the line of its contact", said), said
     assert abs(solution.x[names.index("c1.hook.phi")] - 90.0) < 1.0
     assert solution.x[names.index("c1.hook.theta")] == pytest.approx(120.0, abs=0.5)
     assert solution.x[names.index("c2.hook.theta")] == pytest.approx(120.0, abs=3.0)
