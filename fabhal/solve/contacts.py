@@ -473,6 +473,8 @@ def _distances(fwd: Forward, pairs: Pairs, groups: list[list[int]], check: bool 
             start += len(index)
             mine = slice(done, done + int(np.count_nonzero(kept)))
             done = mine.stop
+            if mine.start == mine.stop:
+                continue  # every point certainly outside (most members: nothing looked up)
             row, point = np.divmod(index[kept], count)
             # each gradient into the world by its row's obstacle's rotation: g @ R^T
             rotations = frames[pairs.obstacles[groups[g]], :3, :3]
