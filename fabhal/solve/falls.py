@@ -22,7 +22,7 @@ from fabhal.primitives import across, grips
 from fabhal.solve.forces import (
     SquareLoop,
     WeldedRing,
-    contact_normals,
+    contact_lines,
     point_contacts,
     weight_newtons,
     welded_sides,
@@ -231,13 +231,9 @@ def swivels(
     nothing). Named for the one that carries most about the line, the others
     listed. In a loop these are one split of the load among many: the caller
     confirms that no split needs them (`solve._held_by_the_model`)."""
-    normals = contact_normals(model, x, loops)
-    fwd = model.forward(x, with_twists=True)
-    assert fwd.own_twists is not None
     found = []
-    for loop, normal in zip(loops, normals, strict=True):
-        axis = fwd.own_twists[loop.rod.dof_indices[0], :3, 3]
-        along_wire = np.cross(normal, axis / np.linalg.norm(axis))
+    for loop, normal, axis in zip(loops, *contact_lines(model, x, loops), strict=True):
+        along_wire = np.cross(normal, axis)
         moment = abs(float(wrenches.moments[loop.joint] @ normal))
         along = abs(float(wrenches.forces[loop.joint] @ along_wire))
         if max(along, moment / (across(loop.rod.primitive) / 2.0)) <= LIFT_CARRIES * newtons:

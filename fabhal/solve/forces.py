@@ -148,21 +148,21 @@ def square_loops(model: Model) -> list[SquareLoop]:
     ]
 
 
-def contact_normals(model: Model, x: Array, loops: list[SquareLoop]) -> Array:
-    """(L, 3) each rod's normal at its contact with the loop: the loop's inward
-    direction there (its connector's z) less its part along the rod's axis
-    (the direction its slide `t` moves it), as a rod's surface normal is
-    square to its axis."""
+def contact_lines(model: Model, x: Array, loops: list[SquareLoop]) -> tuple[Array, Array]:
+    """(L, 3) each rod's normal at its contact with the loop and (L, 3) the
+    rod's axis (the direction its slide `t` moves it): the normal is the
+    loop's inward direction there (its connector's z) less its part along
+    the axis, as a rod's surface normal is square to its axis."""
     fwd = model.forward(x, with_twists=True)
     assert fwd.own_twists is not None
-    normals = np.zeros((len(loops), 3))
+    normals, axes = np.zeros((len(loops), 3)), np.zeros((len(loops), 3))
     for k, loop in enumerate(loops):
         axis = fwd.own_twists[loop.rod.dof_indices[0], :3, 3]
-        axis = axis / np.linalg.norm(axis)
+        axes[k] = axis / np.linalg.norm(axis)
         inward = model.connector_frame(loop.loop, x, fwd.frames)[:3, 2]
-        normal = inward - (inward @ axis) * axis
+        normal = inward - (inward @ axes[k]) * axes[k]
         normals[k] = normal / np.linalg.norm(normal)
-    return normals
+    return normals, axes
 
 
 def about_the_normal(model: Model, x: Array, loops: list[SquareLoop]) -> tuple[Array, Array, Array]:
@@ -171,7 +171,7 @@ def about_the_normal(model: Model, x: Array, loops: list[SquareLoop]) -> tuple[A
     through the contact point (no velocity there). (L,) joints, (L, 3)
     velocities (mm), (L, 3) rotations (rad)."""
     joints = np.array([loop.joint for loop in loops], dtype=int)
-    return joints, np.zeros((len(loops), 3)), contact_normals(model, x, loops)
+    return joints, np.zeros((len(loops), 3)), contact_lines(model, x, loops)[0]
 
 
 def slide_dofs(slides: Iterable[Slide]) -> list[int]:
