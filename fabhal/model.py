@@ -23,7 +23,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from fabhal.elaborate import Connection, Endpoint, FlatProgram, PartInstance
-from fabhal.kinematics.frames import Array, angular_velocities, frame_matrix, invert
+from fabhal.kinematics.frames import Array, angular_velocities, euler_matrix, frame_matrix, invert
 from fabhal.primitives import (
     FRAME_FORMULAS,
     SPINNING,
@@ -804,6 +804,7 @@ def _assemble(
     target = index[program.targets[0].part] if program.targets else None
     for joint in joints:
         _keep_on_floor(joint, variables, environments)
+        _rest_on_the_top_line(joint, variables, parts)
         _keep_threaded(joint, variables)
         _jam(joint, variables)
     written = _written_settings(joints, variables)
@@ -929,9 +930,9 @@ def _holds_by_itself(first: str, second: str) -> bool:
 
 
 def _fixed_rod_line(joint: Joint, parts: tuple[PartInstance, ...]) -> tuple[int, ...]:
-    """The spin of a rod that belongs to an environment: the contact stays on the
-    line of the rod that its frame puts on top. A part's rod turns in what holds
-    it (a basket's handle in a hook), but a fixed rod cannot turn, and letting the
+    """The spin of a rod that belongs to an environment: the contact stays on its
+    top line (`_rest_on_the_top_line`). A part's rod turns in what holds it (a
+    basket's handle in a hook), but a fixed rod cannot turn, and letting the
     contact wander round it only gives step 1 a valley under the rod to fall into;
     whatever hangs from one point rests on the top line anyway."""
     return tuple(
@@ -939,6 +940,39 @@ def _fixed_rod_line(joint: Joint, parts: tuple[PartInstance, ...]) -> tuple[int,
         for side in (joint.a, joint.b)
         if parts[side.part].environment and side.primitive.variant == "Rod"
     )
+
+
+def _rest_on_the_top_line(
+    joint: Joint, variables: list[DofVariable], parts: tuple[PartInstance, ...]
+) -> None:
+    """What rests on an environment's rod touches it on its top line: the rod's
+    pinned spin (`_fixed_rod_line`) starts, and stays, where the contact's
+    normal points most nearly up in the world. The reference keeps the line its
+    rod's frame puts at +y, which is the top only for some parts: a tension rod
+    or shower curtain rod along x has +y on its side, and an S-hook hung there
+    was `solved` touching the rod's side, its whole load on a horizontal
+    contact. Not where a connection is held (`fixed`: tape holds a hook where it
+    is put, the reading nook's on its shelf edge's face), nor on an upright rod
+    (no top line: a car seat's headrest posts keep their frame's)."""
+    if joint.held:
+        return
+    for side in (joint.a, joint.b):
+        if not parts[side.part].environment or side.primitive.variant != "Rod":
+            continue
+        placed = (euler_matrix(parts[side.part].rotation) @ euler_matrix(side.primitive.rotation))[:3, :3]
+        # the normal at spin s is Rz(s) (0, 1, 0) in the rod's frame: its height is
+        # -sin(s) placed[2, 0] + cos(s) placed[2, 1], highest at s = atan2(-placed[2, 0], placed[2, 1])
+        if np.hypot(placed[2, 0], placed[2, 1]) < UPRIGHT:
+            continue
+        spin = float(np.degrees(np.arctan2(-placed[2, 0], placed[2, 1])))
+        if abs(spin) < 1e-6:
+            continue  # the frame's +y is the top already: kept to the bit
+        i = side.dof_indices[2]
+        variables[i] = replace(variables[i], dof=replace(variables[i].dof, default=spin % 360.0))
+
+
+# below this, the sine of a rod's slope from the vertical: an upright rod has no top line
+UPRIGHT = 1e-6
 
 
 def _ring_spin_off_hooks(joint: Joint) -> tuple[int, ...]:

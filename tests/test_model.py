@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from collections import defaultdict
 from pathlib import Path
 
@@ -280,3 +281,43 @@ def test_a_loop_that_grips_its_rod_does_not_tilt_along_it_unless_taped(tmp_path:
         dof = model.variables[tilt].dof
         assert (dof.low, dof.high) == expected
         assert (tilt in model.pinned) == (not fixed)
+
+
+def _rod_contact_normal(model: Model) -> np.ndarray:
+    """The world direction of the environment rod's contact normal at the model's start."""
+    x = model.x_default()
+    (joint,) = [j for j in model.joints if model.parts[j.b.part].environment]
+    return model.connector_frame(joint.b, x, model.part_frames(x))[:3, 2]
+
+
+@pytest.mark.parametrize(
+    ("placed", "connection", "up"),
+    [
+        # the tension rod's frame puts its contact line (+y) on its side, level with its axis
+        ("", "", (0.0, 0.0, 1.0)),
+        # turned 20 degrees about y its axis runs along (cos 20, 0, -sin 20); of the
+        # directions square to it the highest is (sin 20, 0, cos 20)
+        (" rot (0, 20, 0)", "", (math.sin(math.radians(20)), 0.0, math.cos(math.radians(20)))),
+        # taped on, the hook stays where the builder put it: the frame's own line (+y)
+        ("", " fixed", (0.0, 1.0, 0.0)),
+    ],
+)
+def test_what_rests_on_an_environments_rod_touches_its_top_line(
+    tmp_path: Path, placed: str, connection: str, up: tuple[float, float, float]
+) -> None:
+    """An S-hook on a tension rod: the contact's outward normal points straight
+    up (the rod's top line), or, on a sloping rod, as nearly up as a direction
+    square to the axis can; before, it was the rod frame's +y, the rod's side,
+    and a mug on that S-hook was `solved` hanging from a horizontal contact.
+    Exact geometry: 1e-12."""
+    program = tmp_path / "rod.fhl"
+    program.write_text(
+        f"environment rod = LongTensionRod() at (0, 0, 0){placed}\n"
+        "s = DoubleHookMedium()\n"
+        f"connect s.hook1 -- rod.rod{connection}\n"
+        "target s at (1400, 127, 2100)\n"
+    )
+    model = model_of(program)
+    assert _rod_contact_normal(model) == pytest.approx(up, abs=1e-12)
+    (spin,) = [i for i, v in enumerate(model.variables) if v.name == "rod.rod.spin"]
+    assert spin in model.pinned  # it stays there: the rod cannot turn

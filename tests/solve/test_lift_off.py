@@ -60,8 +60,11 @@ def test_no_lift_off_is_judged_under_a_part_deep_in_another(tmp_path: Path) -> N
     contact springs carry the hack's whole weight at 0.2 mm of give: 10 mm in,
     they push some 50 times its weight, a load no real contact makes, and the
     statics under it had the rod "pull" the S-hook (E512, falls_apart) ahead
-    of the E508 that says why. Where a part is more than 1 mm inside another
-    or the world, lift-offs are not judged: E508 alone, not_at_rest."""
+    of the E508 that says why; since the S-hook rests on the rod's top line
+    (not its side), they pushed the roll off the S-hook's tip (E501, 217 N
+    on a 3 N hack). Where a part is more than 1 mm inside another or the
+    world, neither lift-offs nor its own falls are judged: E508 alone,
+    not_at_rest."""
     result = solve_text(
         tmp_path,
         """\

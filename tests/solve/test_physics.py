@@ -756,3 +756,79 @@ target s at (0, 0, 1507.5) rot (180, 0, 0)
     stick = solution.frames[solution.model.part_index("flag")]
     axis_height = (stick @ np.array([0.0, 0.0, 140.0, 1.0]))[2]  # the rod's middle, on its axis
     assert abs(axis_height - 1522.35) < 0.5 and abs(stick[2, 2]) < 0.01  # level
+
+
+def test_a_mug_on_an_s_hook_hangs_from_a_tension_rods_top(tmp_path: Path) -> None:
+    """Hand calculation: the tension rod's axis runs along x at y = 127, z =
+    2133.5, radius 12.7, so its top line is at z = 2146.2. The medium S-hook
+    rests there, its upper arc's contact normal straight down onto the rod,
+    and what hangs (S-hook and mug) has its centre of mass under the contact
+    (within 0.1 mm of its vertical: the settle's tolerance is far finer).
+    Before, the rod frame's +y, its side, was the contact: the S-hook hung
+    from a horizontal contact (y = 139.7, z = 2133.5) and was `solved`."""
+    result = solve_text(
+        tmp_path,
+        """\
+environment rod = LongTensionRod() at (0, 0, 0)
+s = DoubleHookMedium()
+mug = Mug()
+connect s.hook1 -- rod.rod
+connect mug.hook -- s.hook2
+target mug at (1400, 127, 1950)
+""",
+    )
+    assert result.status == "solved", result.diagnostics
+    solution = result.solution
+    contact = environment_contact(solution)
+    assert contact[:3, 3][1:] == pytest.approx((127.0, 2146.2), abs=1e-6)
+    # the S-hook's tilt along the rod settles to the settle's tolerance: 1e-4 (0.006 degrees)
+    assert contact[:3, 2] == pytest.approx((0.0, 0.0, 1.0), abs=1e-4)
+    assert centre_of_mass(solution, ("s", "mug"))[:2] == pytest.approx(contact[:2, 3], abs=0.1)
+
+
+def test_a_curtain_ring_on_a_shower_rod_hangs_from_its_top(tmp_path: Path) -> None:
+    """A bird feeder on a medium S-hook from a curtain ring on a shower curtain
+    rod (axis along x at y = 127, z = 2133.5, radius 6.5: its top line at z =
+    2140.0). The ring rests on that line and everything hangs plumb under the
+    contact (0.1 mm, as above). Before, the contact was on the rod's side: the
+    ring was left twisted to its jam there and reported not at rest (E514: its
+    contact carried the feeder's 12 N along the wire)."""
+    result = solve_text(
+        tmp_path,
+        """\
+environment shower = ShowerCurtainRod() at (0, 0, 0)
+ring = CurtainRing()
+s = DoubleHookMedium()
+feeder = BirdFeeder()
+connect ring.hook -- shower.rod
+connect s.hook1 -- ring.hook
+connect feeder.ring -- s.hook2
+target feeder at (300, 127, 1900)
+""",
+    )
+    assert result.status == "solved", result.diagnostics
+    solution = result.solution
+    contact = environment_contact(solution)
+    assert contact[:3, 3][1:] == pytest.approx((127.0, 2140.0), abs=1e-6)
+    assert contact[:3, 2] == pytest.approx((0.0, 0.0, 1.0), abs=1e-4)  # as above
+    assert centre_of_mass(solution, ("ring", "s", "feeder"))[:2] == pytest.approx(contact[:2, 3], abs=0.1)
+
+
+def environment_contact(solution: Solution) -> np.ndarray:
+    """The world frame of the one contact on an environment's primitive."""
+    model = solution.model
+    ((joint, side),) = [
+        (j.index, label)
+        for j in model.joints
+        for label, end in (("a", j.a), ("b", j.b))
+        if model.parts[end.part].environment
+    ]
+    return connector_world(solution, joint, side)
+
+
+def centre_of_mass(solution: Solution, names: tuple[str, ...]) -> np.ndarray:
+    """The world centre of mass of the named parts together."""
+    parts = [solution.model.part_index(name) for name in names]
+    properties = [mass_properties(solution.model.parts[i].spec) for i in parts]
+    centres = [solution.frames[i] @ (*p.center_of_mass, 1.0) for i, p in zip(parts, properties, strict=True)]
+    return np.average(np.array(centres)[:, :3], axis=0, weights=[p.mass_g for p in properties])
