@@ -234,11 +234,10 @@ def solve(model: Model, options: SolveOptions, loop_start: Array | None = None) 
     first = _solve_once(model, options, loop_start)
     # without gravity, or from a continued start, one try: the member's own solve makes the others
     one_try = not options.gravity or options.start is not None
-    if model.closures and not model.turning_on_rods and not one_try:
-        if any(isinstance(fall, Swivel) for fall in first.falls):
-            turning = _with_rods_turning(model, options, loop_start)
-            if turning is not None:
-                return turning
+    if _rods_would_turn(model, first) and not one_try:
+        turning = _with_rods_turning(model, options, loop_start)
+        if turning is not None:
+            return turning
     jammed = _jammed_rings(model, first) if first.status == "solved" and not one_try else []
     if jammed:
         first = _untwisted(model, options, first, jammed)
@@ -353,6 +352,17 @@ def _suspect_connections(model: Model, result: Solution, aligned: bool) -> list[
 SQUARE_DEG = 1.0
 
 
+def _rods_would_turn(model: Model, result: Solution) -> bool:
+    """Whether a result of a hack with loops needs a rod held square in a plain
+    hook or ring to carry what a contact at a point cannot (E514), in a model
+    whose hooks and rings do not turn on rods yet (`_with_rods_turning`)."""
+    return (
+        bool(model.closures)
+        and not model.turning_on_rods
+        and any(isinstance(f, Swivel) for f in result.falls)
+    )
+
+
 def _with_rods_turning(model: Model, options: SolveOptions, loop_start: Array | None) -> Solution | None:
     """A hack with loops whose result needs a rod that a plain hook or ring
     holds square to carry what a contact at a point cannot (E514): solved
@@ -435,6 +445,10 @@ def _solved_turned(
         other = _solve_once(turned, replace(options, seed=seed), None)
         if other.status == "solved":
             return other
+        if _rods_would_turn(turned, other):  # as `solve` does the design as written
+            turning = _with_rods_turning(turned, replace(options, seed=seed), None)
+            if turning is not None:
+                return turning
         if not other.falls:
             return None  # it holds together but not at rest: retried only where it falls, as a design is
     return None
@@ -1185,13 +1199,15 @@ def _judged_beside(
     """The failures still judged where parts lie deeper than OVERLAP_KEPT_MM in
     each other (`overlaps`): such a part is pushed by springs far past any real
     contact's give (a roll 10 mm in a rod: 217 N on a 3 N hack), so no contact
-    "would have to pull", nor carry what a point cannot, under such loads, and
-    what they push off an end does not come off: the E512s, E514s and E501s
-    they made hid the E508 that says why. A part that falls elsewhere, out of
-    the overlap, still falls."""
+    "would have to pull", nor carry what a point cannot, under such loads: the
+    E512s and E514s they made hid the E508 that says why. Nor does a part
+    pushed off an end from deeper than CROSSING_WARNED_MM in another (through
+    it: the springs push some 25 times the weight) come off (E501); a part
+    that falls from nearer the surface (an S-hook sliding off a post's end 1 mm
+    in the mug it carries), or elsewhere, still falls."""
     if not overlaps:
         return falls
-    inside = {model.parts[i].name for overlap in overlaps for i in overlap[:2]}
+    inside = {model.parts[i].name for *pair, depth in overlaps if depth > CROSSING_WARNED_MM for i in pair}
     forced = (LiftOff, Turn, Swivel)
     return tuple(
         fall

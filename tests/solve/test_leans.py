@@ -347,3 +347,42 @@ def test_a_grip_in_the_bottom_of_a_hook_carries_its_load_through_the_contact(tmp
     assert result.solution.x[names.index("c.hook.theta")] == pytest.approx(120.0, abs=0.5)
     assert result.solution.forces is not None
     assert np.linalg.norm(result.solution.forces[0]) == pytest.approx(0.109 * 9.81, abs=0.005)
+
+
+def test_a_design_turned_over_is_let_turn_on_its_rods_as_the_design_as_written(tmp_path: Path) -> None:
+    """A basket hung by its two side handles (3 mm rods at z = 252 in its
+    frame) on medium S-hooks from two closet rods in one line (radius 6.35,
+    axis at z = 1500), asked for 400 mm below the rods, out of reach. Hand
+    calculation, hanging plumb: the rods' top line 1506.35; each S-hook's
+    upper arc (16 mm radius, 2.9 mm wire: 13.1 inside) centred 13.1 lower,
+    1493.25; its lower arc's centre 32 mm lower, 1461.25; the handle's axis
+    3 mm above that arc's inside bottom, 1461.25 - 13.1 + 3 = 1451.15; the
+    basket's frame 252 lower, z = 1199.15, level. Stretched towards the
+    request, the design as written comes out inside the rods' wall (E508);
+    turned over, each try had a handle held square in its hook carrying what
+    a point cannot (E514), and was given up, where the design as written is
+    solved again with its hooks turning on rods (N508): so now the design
+    turned over is too, and it hangs as calculated (was not at rest).
+    Tolerances: 0.5 mm (the hooks 260 mm apart on the rods for handles 249
+    apart lean 0.1 mm of height off plumb), 0.1 degrees of tilt."""
+    result = solve_text(
+        tmp_path,
+        """\
+environment rods = ClosetRods() at (0, 0, 1500)
+s1 = DoubleHookMedium()
+s2 = DoubleHookMedium()
+basket = Basket()
+connect s1.hook1 -- rods.rod1
+connect s2.hook1 -- rods.rod2
+connect basket.rod1 -- s1.hook2
+connect basket.rod2 -- s2.hook2
+target basket at (0, 0, 1100) rot (0, 0, 90)
+""",
+    )
+    assert result.status == "solved", [d.message for d in result.diagnostics]
+    codes = {d.code for d in result.diagnostics}
+    assert {"N507", "N508"} <= codes
+    solution = result.solution
+    frame = solution.frames[solution.model.part_index("basket")]
+    assert frame[2, 3] == pytest.approx(1199.15, abs=0.5)
+    assert np.degrees(np.arccos(frame[2, 2])) < 0.1

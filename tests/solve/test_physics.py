@@ -644,9 +644,10 @@ def test_a_loop_keeps_the_order_its_closure_found_on_a_shared_rod(tmp_path: Path
     widths apart (the S-hook's 4 mm wire and the handle's, 8 mm in all: the
     spacing rule, to 1e-6 mm).
 
-    The default way round (both of the handle's connections pinned `noflip`;
-    with only the S-hook's pinned, the solver turns the handle's on the rod
-    over, and it hangs) the S-hook hangs swung along the
+    The default way round (every connection pinned `noflip`: with the
+    S-hook's on the rod left open, the solver turns it over and, the mug's
+    handle let turn on the rod, N508, it hangs; with only the S-hook's
+    pinned, it turns the handle's on the rod over) the S-hook hangs swung along the
     rod with its lower hook jammed in the handle, and the balance needs the
     handle to pull it up (about 0.1 N of its 0.106 N weight; the rod takes
     the rest): this was once `solved`. A contact only presses, so the S-hook
@@ -662,8 +663,9 @@ def test_a_loop_keeps_the_order_its_closure_found_on_a_shared_rod(tmp_path: Path
         points = model.connection_points(model.forward(solution.x))[on_rod]
         return float(abs(points[0][0] - points[1][0]))
 
-    handle, on_rod = "connect mug.hook -- s1.hook1", "connect mug.hook -- rod"
-    pinned = MUG_ON_ROD_AND_HOOK.replace(handle, f"{handle} noflip").replace(on_rod, f"{on_rod} noflip")
+    pinned = MUG_ON_ROD_AND_HOOK
+    for line in ("connect s1.hook2 -- rod", "connect mug.hook -- s1.hook1", "connect mug.hook -- rod"):
+        pinned = pinned.replace(f"{line}\n", f"{line} noflip\n")
     result = solve_text(tmp_path, pinned)
     assert result.status == "falls_apart", result.diagnostics
     (lifts,) = [d for d in result.diagnostics if d.code == "E512"]
