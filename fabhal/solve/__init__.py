@@ -979,7 +979,9 @@ def _choice_note(
 
 def _written(model: Model, i: int, x: Array) -> str:
     """DoF i's value as the program would write it (docs/language.md, `set`)."""
-    return f"`set ({model.variables[i].name}: {x[i]:.6g})` (--dofs lists every setting)"
+    variable = model.variables[i]
+    value = x[i] % 360.0 if variable.dof.periodic else x[i]  # a turn as a builder writes it
+    return f"`set ({variable.name}: {value:.6g})` (--dofs lists every setting)"
 
 
 @dataclass(frozen=True)

@@ -189,6 +189,8 @@ def setting_text(model: Model, i: int, value: float, length: float) -> str:
     variable = model.variables[i]
     dof = variable.dof
     where = variable.name.rsplit(".", 1)[0]  # part.primitive
+    if dof.periodic:  # a turn as a builder sees it: a bottle turned 790 degrees on a floor is at 70
+        value %= 360.0
     if not dof.periodic and dof.high <= 1.0:
         return f"{value * length:.0f} mm along {where} (of {length:.0f}){_counted_from(model, i)}"
     primitive = model.side_of(i).primitive

@@ -61,6 +61,19 @@ def test_the_note_says_which_end_a_place_on_a_bar_is_measured_from() -> None:
     assert "mm along rod.rod (of 500);" in note.message or note.message.endswith("mm along rod.rod (of 500)")
 
 
+def test_a_turn_reads_within_one_turn() -> None:
+    """A DoF that turns freely (the demo's ring round its own wire) settles
+    wherever its path leaves it, two turns and 70 degrees on (790) as well as
+    at 70: a builder sets 70 degrees, and that is what the setting says."""
+    from fabhal.solve.aim import setting_text
+
+    model = api.check(REPO / "programs" / "demo.fhl").model
+    assert model is not None
+    i = next(i for i, v in enumerate(model.variables) if v.dof.periodic)
+    assert setting_text(model, i, 790.0, 1.0) == setting_text(model, i, 70.0, 1.0)
+    assert "70 degrees" in setting_text(model, i, 790.0, 1.0)
+
+
 def test_the_clip_light_is_aimed_as_near_as_its_own_balance_allows() -> None:
     """Clip light M: the light (200 g) grips the hanger's bar with a `fixed`
     clip; the clip's place on the bar and its grip angles are chosen. Aimed, it
