@@ -26,6 +26,7 @@ from fabhal.elaborate import Connection, Endpoint, FlatProgram, PartInstance
 from fabhal.kinematics.frames import Array, angular_velocities, euler_matrix, frame_matrix, invert
 from fabhal.primitives import (
     FRAME_FORMULAS,
+    LOOPS,
     SPINNING,
     TILTING,
     Dof,
@@ -147,8 +148,9 @@ class Model:
     closure_play: tuple[float, ...] = ()
     written: frozenset[int] = frozenset()  # DoFs the program sets (`set (...)`): in `pinned`, never moved
     turn_limits: tuple[TurnLimit, ...] = ()  # flex angles on both sides of a connection, jammed together
-    # plain hooks and rings round rods turn about the line of their contact (`_turning_on_a_rod`)
-    turning_on_rods: bool = False
+    # plain hooks and rings round rods, hooks and rings turn about the line of their contact
+    # (`_turning_on_its_contact`)
+    turning_on_contact: bool = False
 
     # ---- the DoF vector
 
@@ -754,7 +756,7 @@ def _residual_of(errors: Array) -> Array:
     return out
 
 
-def build_model(program: FlatProgram, turning_on_rods: bool = False) -> Model:
+def build_model(program: FlatProgram, turning_on_contact: bool = False) -> Model:
     """Lay out the DoF vector and grow the spanning tree from the environments.
     The parts are ordered as the tree reaches them, not as written: the
     environments by name, then each part as the connections (in their
@@ -763,22 +765,25 @@ def build_model(program: FlatProgram, turning_on_rods: bool = False) -> Model:
     is then added in the same order whatever the order of the declarations
     (the diaper caddy, its parts declared in reverse, once came to rest 27 mm
     elsewhere: its valley is flat enough for rounding to choose).
-    `turning_on_rods`: in a hack with loops, plain hooks and rings round rods
-    turn about the line of their contact (`_turning_on_a_rod`)."""
+    `turning_on_contact`: in a hack with loops, plain hooks and rings round rods,
+    hooks and rings turn about the line of their contact (`_turning_on_its_contact`)."""
     by_name = _assemble(program, tuple(sorted(program.parts, key=lambda part: part.name)))
     environments = [i for i, part in enumerate(by_name.parts) if part.environment]
     reached = [by_name.placed_sides(edge)[1].part for edge in by_name.tree]
     order = [*environments, *reached, *by_name.unplaced]
     loops = bool(by_name.closures)
-    return _assemble(program, tuple(by_name.parts[i] for i in order), loops, loops and turning_on_rods)
+    return _assemble(program, tuple(by_name.parts[i] for i in order), loops, loops and turning_on_contact)
 
 
 def _assemble(
-    program: FlatProgram, parts: tuple[PartInstance, ...], loops: bool = True, turning_on_rods: bool = False
+    program: FlatProgram,
+    parts: tuple[PartInstance, ...],
+    loops: bool = True,
+    turning_on_contact: bool = False,
 ) -> Model:
     """The model of `program` with its parts in this order; without `loops`,
-    the spinning rings' twists left out (`_twisting`); with `turning_on_rods`,
-    plain hooks and rings round rods turning on them (`_turning_on_a_rod`)."""
+    the spinning rings' twists left out (`_twisting`); with `turning_on_contact`,
+    plain hooks and rings turning on what they go round (`_turning_on_its_contact`)."""
     index = {p.name: i for i, p in enumerate(parts)}
     variables: list[DofVariable] = []
     joints: list[Joint] = []
@@ -790,8 +795,8 @@ def _assemble(
             assert primitive is not None and other is not None, end  # elaboration resolved them
             part = index[end.part]
             primitive = _twisting(primitive, connection, label, loops)
-            if turning_on_rods:
-                primitive = _turning_on_a_rod(primitive, other)
+            if turning_on_contact:
+                primitive = _turning_on_its_contact(primitive, other)
             start = len(variables)
             for dof in primitive.dofs:
                 variables.append(DofVariable(f"{end.part}.{end.primitive}.{dof.name}", dof, j, label))
@@ -845,7 +850,7 @@ def _assemble(
         standing,
         written=written,
         turn_limits=together,
-        turning_on_rods=turning_on_rods,
+        turning_on_contact=turning_on_contact,
     )
 
 
@@ -871,20 +876,24 @@ def _twisting(primitive: Primitive, connection: Connection, label: str, loops: b
 PLAIN_LOOPS = ("Hook", "Ring")  # hooks and rings that do not say `flex`
 
 
-def _turning_on_a_rod(primitive: Primitive, other: Primitive) -> Primitive:
-    """A plain hook or ring (no `flex`) round a rod with the turn about the line
-    of its contact that a flexing one has (its `phi`, as far as its wire jams
-    on the rod, `primitives.yaw_jam_deg`; none where it grips the rod). A rod
-    touching a wire at a point turns so; the reference keeps the loop square
-    round the rod, and in a loop the contact may then carry a moment about
-    that line that a point cannot (E514): a flag stick laid in two ceiling
-    hooks, one turned 30 degrees, was held diagonal, up the turned hook's
-    side, where the real stick lies in both hooks' bottoms. Only where the
-    solver finds that (`solve._with_rods_turning`): elsewhere the turn carries
-    nothing (without loops the weight's line is the contact's) and, given to
-    every such hook, it cost the reading nook, balanced on knife edges, 20 s
-    instead of 2 for the same not-at-rest result."""
-    if primitive.variant not in PLAIN_LOOPS or other.variant not in TILTING:
+def _turning_on_its_contact(primitive: Primitive, other: Primitive) -> Primitive:
+    """A plain hook or ring (no `flex`) round a rod, or on another hook or ring,
+    with the turn about the line of its contact that a flexing one has (its
+    `phi`, as far as its wire jams on what it goes round,
+    `primitives.yaw_jam_deg`; none where it grips a rod). A rod touching a wire
+    at a point turns so, and so do two round wires crossing; the reference
+    keeps the loop square round the rod, and a hook's plane square to the hook
+    it hangs on, and in a loop the contact may then carry a moment about that
+    line that a point cannot (E514), or the loops close only with two parts in
+    one place (E423): a flag stick laid in two ceiling hooks, one turned 30
+    degrees, was held diagonal, up the turned hook's side, where the real stick
+    lies in both hooks' bottoms; a broom on two chains of a curtain ring and a
+    flat S-hook under a shower rod could only lie across the rod, and knotted.
+    Only where the solver finds that (`solve._with_loops_turning`): elsewhere
+    the turn carries nothing (without loops the weight's line is the
+    contact's) and, given to every such hook, it cost the reading nook,
+    balanced on knife edges, 20 s instead of 2 for the same not-at-rest result."""
+    if primitive.variant not in PLAIN_LOOPS or not (other.variant in TILTING or other.kind in LOOPS):
         return primitive
     return _flexing(primitive, True)
 

@@ -234,8 +234,9 @@ def solve(model: Model, options: SolveOptions, loop_start: Array | None = None) 
     first = _solve_once(model, options, loop_start)
     # without gravity, or from a continued start, one try: the member's own solve makes the others
     one_try = not options.gravity or options.start is not None
-    if _rods_would_turn(model, first) and not one_try:
-        turning = _with_rods_turning(model, options, loop_start)
+    needed = _loops_would_turn(model, first)
+    if needed is not None and not one_try:
+        turning = _with_loops_turning(model, options, loop_start, needed)
         if turning is not None:
             return turning
     jammed = _jammed_rings(model, first) if first.status == "solved" and not one_try else []
@@ -352,48 +353,64 @@ def _suspect_connections(model: Model, result: Solution, aligned: bool) -> list[
 SQUARE_DEG = 1.0
 
 
-def _rods_would_turn(model: Model, result: Solution) -> bool:
-    """Whether a result of a hack with loops needs a rod held square in a plain
-    hook or ring to carry what a contact at a point cannot (E514), in a model
-    whose hooks and rings do not turn on rods yet (`_with_rods_turning`)."""
-    return (
-        bool(model.closures)
-        and not model.turning_on_rods
-        and any(isinstance(f, Swivel) for f in result.falls)
-    )
+def _loops_would_turn(model: Model, result: Solution) -> str | None:
+    """Why a result of a hack with loops, in a model whose plain hooks and rings
+    are held square on what they go round, needs them to turn about the line of
+    their contact (`_with_loops_turning`): "E514" where a rod held square
+    carries what a contact at a point cannot, "E423" where the loops close
+    only with two parts in one place (a turned hook may close them apart);
+    None where neither."""
+    if not model.closures or model.turning_on_contact:
+        return None
+    if any(isinstance(fall, Swivel) for fall in result.falls):
+        return "E514"
+    if result.status == "infeasible" and any(d.code == "E423" for d in result.diagnostics):
+        return "E423"
+    return None
 
 
-def _with_rods_turning(model: Model, options: SolveOptions, loop_start: Array | None) -> Solution | None:
-    """A hack with loops whose result needs a rod that a plain hook or ring
-    holds square to carry what a contact at a point cannot (E514): solved
-    again (the whole `solve`) with every plain hook and ring round a rod free
-    to turn about the line of its contact (`model._turning_on_a_rod`), from
-    the loops' closing start with those turns square (it closes them still;
-    step 1 alone let a stick's loop come open), with the loops' play kept;
-    that result where it hangs at rest, N508 saying which turned most (none
-    where all rest square: the square model's start was at fault). None
-    where it does not hang at rest either."""
-    turning = build_model(model.program, turning_on_rods=True)
+# what N508 says a square model needed, by the code `_loops_would_turn` gives
+SQUARE_NEEDED = {
+    "E514": "the hack needed a contact to carry what a point cannot (E514)",
+    "E423": "its loops closed only with two parts in one place (E423)",
+}
+
+
+def _with_loops_turning(
+    model: Model, options: SolveOptions, loop_start: Array | None, needed: str
+) -> Solution | None:
+    """A hack with loops that needs its plain hooks and rings to turn about the
+    line of their contact (`needed`: why, `_loops_would_turn`): solved again (the
+    whole `solve`) with every plain hook and ring round a rod, or on another
+    hook or ring, free to (`model._turning_on_its_contact`), from the loops'
+    closing start with those turns square (it closes them still; step 1 alone
+    let a stick's loop come open), with the loops' play kept; that result
+    where it hangs at rest, N508 saying which turned most (none where all rest
+    square: the square model's start was at fault). None where it does not
+    hang at rest either, or where nothing in it could turn so."""
+    turning = build_model(model.program, turning_on_contact=True)
+    if len(turning.variables) == len(model.variables):
+        return None  # no plain hook or ring on what it goes round: the same model, the same answer
     if loop_start is not None:
         loop_start = _same_values(model, turning, loop_start)
         if model.closure_play:
             turning = turning.with_play(loop_start)
-    options.report("a rod would turn on its contact: solving again with hooks and rings turning on rods")
+    options.report("solving again with hooks and rings turning on what they go round")
     result = solve(turning, options, loop_start)
     if result.status != "solved":
         return None
-    angle, joint = max(_rod_turns(model, turning, result.x), key=lambda turn: turn[0], default=(0.0, None))
+    turns = _contact_turns(model, turning, result.x)
+    angle, joint, loop, on = max(turns, key=lambda turn: turn[0], default=(0.0, None, "", ""))
     if joint is None or angle < SQUARE_DEG:
         return result
     note = Diagnostic(
         Severity.NOTE,
         "N508",
-        f"turned: `{joint.connection.a} -- {joint.connection.b}` rests with the hook or ring turned "
-        f"{angle:.0f} degrees about the line of its contact with the rod; held square, as the reference "
-        "holds plain hooks and rings on rods, the hack needed a contact to carry what a point cannot (E514)",
+        f"turned: `{loop}` rests turned {angle:.0f} degrees about the line of its contact with `{on}`; "
+        f"held square, as the reference holds plain hooks and rings, {SQUARE_NEEDED[needed]}",
         joint.connection.span,
-        "build it so: the rod lies turned in the hook or ring as the result shows (--dofs lists each "
-        "turn, the loop's `phi`)",
+        "build it so: the hook or ring lies turned on what it goes round as the result shows (--dofs "
+        "lists each turn, the connection's `phi`)",
     )
     return replace(result, diagnostics=(note, *result.diagnostics))
 
@@ -406,13 +423,19 @@ def _same_values(model: Model, other: Model, x: Array) -> Array:
     return np.array([at.get((v.joint, v.side, v.dof.name), v.dof.default) for v in other.variables])
 
 
-def _rod_turns(model: Model, turning: Model, x: Array) -> list[tuple[float, Joint]]:
-    """(degrees from square, connection) of each turn `turning` gave a plain
-    hook or ring that `model` holds square on its rod, at x (of `turning`)."""
+def _contact_turns(model: Model, turning: Model, x: Array) -> list[tuple[float, Joint, str, str]]:
+    """(degrees from square, connection, the hook or ring, what it turns on) of
+    each turn `turning` gave a plain hook or ring that `model` holds square, at
+    x (of `turning`)."""
     return [
-        (abs(float(x[i]) - turning.variables[i].dof.default), joint)
+        (
+            abs(float(x[i]) - turning.variables[i].dof.default),
+            joint,
+            str(joint.endpoint(side)),
+            str(joint.endpoint(other)),
+        )
         for square, joint in zip(model.joints, turning.joints, strict=True)
-        for before, side in ((square.a, joint.a), (square.b, joint.b))
+        for before, side, other in ((square.a, joint.a, joint.b), (square.b, joint.b, joint.a))
         if before.primitive.variant != side.primitive.variant
         for i in side.dof_indices
         if turning.variables[i].dof.name == "phi"
@@ -426,7 +449,7 @@ def _turned(model: Model, connection: Connection) -> Model:
         model.program,
         connections=tuple(turned if c is connection else c for c in model.program.connections),
     )
-    return build_model(program, model.turning_on_rods)
+    return build_model(program, model.turning_on_contact)
 
 
 def _solved_turned(
@@ -445,8 +468,9 @@ def _solved_turned(
         other = _solve_once(turned, replace(options, seed=seed), None)
         if other.status == "solved":
             return other
-        if _rods_would_turn(turned, other):  # as `solve` does the design as written
-            turning = _with_rods_turning(turned, replace(options, seed=seed), None)
+        needed = _loops_would_turn(turned, other)
+        if needed is not None:  # as `solve` does the design as written
+            turning = _with_loops_turning(turned, replace(options, seed=seed), None, needed)
             if turning is not None:
                 return turning
         if not other.falls:

@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 from fabhal import api
+from fabhal.solve import Solution
 from fabhal.solve.aim import setting_text
 from tests.conftest import REPO, written_in_reverse
 from tests.solve.test_physics import solve_text
@@ -386,3 +387,91 @@ target basket at (0, 0, 1100) rot (0, 0, 90)
     frame = solution.frames[solution.model.part_index("basket")]
     assert frame[2, 3] == pytest.approx(1199.15, abs=0.5)
     assert np.degrees(np.arccos(frame[2, 2])) < 0.1
+
+
+def broom_axis(solution: Solution) -> tuple[np.ndarray, np.ndarray]:
+    """The broom handle's axis: a point on it (the tube's middle) and its direction."""
+    broom = solution.model.part_index("broom")
+    tube = solution.frames[broom] @ solution.model.parts[broom].spec.primitive("tube").base_frame()
+    return tube[:3, 3], tube[:3, 2]
+
+
+def test_a_hook_turns_on_the_ring_it_hangs_from_where_a_loop_needs_it(tmp_path: Path) -> None:
+    """A broom handle (10 mm in radius) hung under a shower curtain rod by two
+    chains of a curtain ring and a flat medium S-hook. Held square, each ring
+    square round the rod and each S-hook's plane square to its ring, a chain
+    holds the broom across the rod, so two cannot hold it along it: the loop
+    knotted and fell apart. Turning on what they go round (N508), it hangs
+    along the rod. Hand calculation, chains plumb (contacts where the inner
+    surfaces meet, as the model's connector frames do): the rod's top line at
+    2133.5 + 6.5 = 2140.0; each ring's inner bottom 2 x 18.6 lower, 2102.8;
+    the S-hook's upper arc (13.1 inside) centred at 2089.7, its lower one 32
+    lower, 2057.7, whose inner bottom 2044.6 carries the broom: its axis at
+    2054.6. Tolerances: 1 mm (a chain a few degrees out of plumb rises less),
+    1 degree of tilt (one hook holds the handle a little up its side), 5
+    degrees from the requested direction (the aim's)."""
+    result = solve_text(
+        tmp_path,
+        """\
+environment shower = ShowerCurtainRod() at (0, 0, 0)
+r1 = CurtainRing()
+r2 = CurtainRing()
+s1 = DoubleHookMedium()
+s2 = DoubleHookMedium()
+broom = BroomRod()
+connect r1.hook -- shower.rod
+connect r2.hook -- shower.rod
+connect s1.hook1 -- r1.hook
+connect s2.hook1 -- r2.hook
+connect s1.hook2 -- broom.tube
+connect s2.hook2 -- broom.tube
+target broom.tube at (200, 127, 2053) rot (0, 90, 0)
+""",
+    )
+    assert result.status == "solved", [d.message for d in result.diagnostics]
+    assert "N508" in {d.code for d in result.diagnostics}
+    middle, along = broom_axis(result.solution)
+    assert middle[2] == pytest.approx(2054.6, abs=1.0)
+    assert np.degrees(np.arcsin(abs(along[2]))) < 1.0
+    assert np.degrees(np.arccos(abs(along[0]))) < 5.0
+
+
+def test_s_hooks_turn_on_each_other_where_a_loop_closes_only_crowded(tmp_path: Path) -> None:
+    """A towel roll on a broom handle hung by two chains of two flat medium
+    S-hooks from a tension rod. Held square, each chain's lower hook holds the
+    broom across the rod, and the loop closed only with a chain's hook where
+    the roll is (E423, infeasible: docs/physics.md had it as a limit). The
+    S-hooks turning on each other (N508, "closed only with two parts in one
+    place"), it hangs level (both chains alike: 0.1 degree). Plumb, each
+    chain would leave the broom's axis at: the rod's top line 2133.5 + 12.7 =
+    2146.2; the upper S-hook's arcs (13.1 inside, 32 apart) put its lower
+    inner bottom at 2146.2 - 13.1 - 32 - 13.1 = 2088.0, the lower S-hook's at
+    2088.0 - 58.2 = 2029.8, and the broom (radius 10) at 2039.8; its chains
+    splayed, it hangs no lower and, splayed less than 30 degrees, at most
+    116.4 x (1 - cos 30) = 15.6 mm higher."""
+    result = solve_text(
+        tmp_path,
+        """\
+environment rod = LongTensionRod() at (0, 0, 0)
+a1 = DoubleHookMedium()
+a2 = DoubleHookMedium()
+b1 = DoubleHookMedium()
+b2 = DoubleHookMedium()
+broom = BroomRod()
+roll = PaperTowelRoll()
+connect a1.hook1 -- rod.rod
+connect a2.hook1 -- a1.hook2
+connect b1.hook1 -- rod.rod
+connect b2.hook1 -- b1.hook2
+connect a2.hook2 -- broom.tube
+connect b2.hook2 -- broom.tube
+connect roll.tube -- broom.tube
+target broom.tube at (1400, 127, 2040) rot (0, 90, 0)
+""",
+    )
+    assert result.status == "solved", [d.message for d in result.diagnostics]
+    (note,) = [d for d in result.diagnostics if d.code == "N508"]
+    assert "closed only with two parts in one place (E423)" in note.message
+    middle, along = broom_axis(result.solution)
+    assert 2039.8 - 0.1 <= middle[2] <= 2039.8 + 15.6
+    assert np.degrees(np.arcsin(abs(along[2]))) < 0.1
