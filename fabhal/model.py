@@ -426,6 +426,31 @@ class Model:
         joint = self.joints[edge.joint]
         return (joint.a, joint.b) if edge.parent_side == "a" else (joint.b, joint.a)
 
+    def on_loops(self) -> frozenset[Connection]:
+        """The connections that lie on a loop: each closing connection and the
+        tree's connections from its two sides up to where their paths meet
+        (the environments counting as one place)."""
+        up: dict[int, tuple[int, int]] = {}  # part -> (the part above it, the connection's joint)
+        for edge in self.tree:
+            parent, child = self.placed_sides(edge)
+            up[child.part] = (parent.part, edge.joint)
+
+        def climb(part: int) -> list[tuple[int, int]]:
+            """(part, joint to the part above) from `part` up to an environment."""
+            path = []
+            while part in up:
+                above, joint = up[part]
+                path.append((part, joint))
+                part = above
+            return path
+
+        found: set[int] = set()
+        for j in self.closures:
+            first, second = climb(self.joints[j].a.part), climb(self.joints[j].b.part)
+            shared = {part for part, _ in first} & {part for part, _ in second}
+            found |= {joint for part, joint in (*first, *second) if part not in shared} | {j}
+        return frozenset(self.joints[j].connection for j in found)
+
     @cached_property
     def tree_child(self) -> dict[int, int]:
         """For each tree joint, the part it hangs in place (its child side's part)."""
@@ -772,18 +797,20 @@ def build_model(program: FlatProgram, turning_on_contact: bool = False) -> Model
     reached = [by_name.placed_sides(edge)[1].part for edge in by_name.tree]
     order = [*environments, *reached, *by_name.unplaced]
     loops = bool(by_name.closures)
-    return _assemble(program, tuple(by_name.parts[i] for i in order), loops, loops and turning_on_contact)
+    turning = by_name.on_loops() if loops and turning_on_contact else None
+    return _assemble(program, tuple(by_name.parts[i] for i in order), loops, turning)
 
 
 def _assemble(
     program: FlatProgram,
     parts: tuple[PartInstance, ...],
     loops: bool = True,
-    turning_on_contact: bool = False,
+    turning: frozenset[Connection] | None = None,
 ) -> Model:
     """The model of `program` with its parts in this order; without `loops`,
-    the spinning rings' twists left out (`_twisting`); with `turning_on_contact`,
-    plain hooks and rings turning on what they go round (`_turning_on_its_contact`)."""
+    the spinning rings' twists left out (`_twisting`); with `turning` (the
+    connections on loops), plain hooks and rings turning on what they go round
+    (`_turning_on_its_contact`)."""
     index = {p.name: i for i, p in enumerate(parts)}
     variables: list[DofVariable] = []
     joints: list[Joint] = []
@@ -795,8 +822,8 @@ def _assemble(
             assert primitive is not None and other is not None, end  # elaboration resolved them
             part = index[end.part]
             primitive = _twisting(primitive, connection, label, loops)
-            if turning_on_contact:
-                primitive = _turning_on_its_contact(primitive, other)
+            if turning is not None:
+                primitive = _turning_on_its_contact(primitive, other, connection in turning)
             start = len(variables)
             for dof in primitive.dofs:
                 variables.append(DofVariable(f"{end.part}.{end.primitive}.{dof.name}", dof, j, label))
@@ -850,7 +877,7 @@ def _assemble(
         standing,
         written=written,
         turn_limits=together,
-        turning_on_contact=turning_on_contact,
+        turning_on_contact=turning is not None,
     )
 
 
@@ -876,9 +903,9 @@ def _twisting(primitive: Primitive, connection: Connection, label: str, loops: b
 PLAIN_LOOPS = ("Hook", "Ring")  # hooks and rings that do not say `flex`
 
 
-def _turning_on_its_contact(primitive: Primitive, other: Primitive) -> Primitive:
-    """A plain hook or ring (no `flex`) round a rod, or on another hook or ring,
-    with the turn about the line of its contact that a flexing one has (its
+def _turning_on_its_contact(primitive: Primitive, other: Primitive, in_a_loop: bool) -> Primitive:
+    """A plain hook or ring (no `flex`) round a rod, or on another hook or ring
+    `in_a_loop`, with the turn about the line of its contact that a flexing one has (its
     `phi`, as far as its wire jams on what it goes round,
     `primitives.yaw_jam_deg`; none where it grips a rod). A rod touching a wire
     at a point turns so, and so do two round wires crossing; the reference
@@ -892,10 +919,18 @@ def _turning_on_its_contact(primitive: Primitive, other: Primitive) -> Primitive
     Only where the solver finds that (`solve._with_loops_turning`): elsewhere
     the turn carries nothing (without loops the weight's line is the
     contact's) and, given to every such hook, it cost the reading nook,
-    balanced on knife edges, 20 s instead of 2 for the same not-at-rest result."""
-    if primitive.variant not in PLAIN_LOOPS or not (other.variant in TILTING or other.kind in LOOPS):
+    balanced on knife edges, 20 s instead of 2 for the same not-at-rest result.
+    A hook on a hook below the loops is left square: what hangs there turns
+    about the vertical for free, and the turn only gave the aim a DoF that
+    carries nothing (a mug on an S-hook under a flag stick in two ceiling
+    hooks hung 27.7 mm from its request instead of 4.9); a rod below them
+    turns (a basket's loose handle, its grip in a ceiling hook above the
+    handle's loop, E514)."""
+    if primitive.variant not in PLAIN_LOOPS:
         return primitive
-    return _flexing(primitive, True)
+    if other.variant in TILTING or (other.kind in LOOPS and in_a_loop):
+        return _flexing(primitive, True)
+    return primitive
 
 
 def _flexing(primitive: Primitive, flex: bool) -> Primitive:

@@ -321,3 +321,37 @@ def test_what_rests_on_an_environments_rod_touches_its_top_line(
     assert _rod_contact_normal(model) == pytest.approx(up, abs=1e-12)
     (spin,) = [i for i, v in enumerate(model.variables) if v.name == "rod.rod.spin"]
     assert spin in model.pinned  # it stays there: the rod cannot turn
+
+
+def test_plain_hooks_turn_on_hooks_only_on_a_loop(tmp_path: Path) -> None:
+    """A flag stick laid in two ceiling hooks (a loop through the ceiling), an
+    S-hook on the stick and a mug on the S-hook below it. The loop's
+    connections are the stick's two; the ones below hang from it. Given the
+    turn about the line of their contact (`turning_on_contact`), the ceiling
+    hooks turn on the stick (a rod), and the mug's plain handle stays square
+    on the S-hook: below the loop that turn carries nothing."""
+    program = tmp_path / "flag.fhl"
+    program.write_text(
+        "environment c1 = CeilingHook() at (-120, 0, 1600) rot (0, 0, 90)\n"
+        "environment c2 = CeilingHook() at (120, 0, 1600) rot (0, 0, 90)\n"
+        "flag = FlagRod()\n"
+        "s = DoubleHook()\n"
+        "mug = Mug()\n"
+        "connect flag.rod -- c1.hook\n"
+        "connect flag.rod -- c2.hook\n"
+        "connect s.hook2 -- flag.rod\n"
+        "connect mug.hook -- s.hook1\n"
+        "target mug at (0, 0, 1400)\n"
+    )
+    result = api.check(program)
+    assert result.ok and result.flat is not None
+    square = build_model(result.flat)
+    looped = {f"{c.a} -- {c.b}" for c in square.on_loops()}
+    assert looped == {"flag.rod -- c1.hook", "flag.rod -- c2.hook"}
+    turning = build_model(result.flat, turning_on_contact=True)
+    variants = {
+        str(j.connection.a) + "|" + str(j.connection.b): (j.a.primitive.variant, j.b.primitive.variant)
+        for j in turning.joints
+    }
+    assert variants["flag.rod|c1.hook"] == ("Rod", "HookFlex")
+    assert variants["mug.hook|s.hook1"] == ("Hook", "HookFlex")  # the S-hook's own flex; the handle square
