@@ -23,7 +23,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from fabhal.elaborate import Connection, Endpoint, FlatProgram, PartInstance
-from fabhal.kinematics.frames import Array, angular_velocities, euler_matrix, frame_matrix, invert
+from fabhal.kinematics.frames import Array, angular_velocities, frame_matrix, invert
 from fabhal.primitives import (
     FRAME_FORMULAS,
     LOOPS,
@@ -130,6 +130,18 @@ class DofVariable:
 class TreeEdge:
     joint: int
     parent_side: str  # the side already placed
+
+
+ENVIRONMENT = -1  # in a loop's parts: every environment part, one rigid link
+
+
+@dataclass(frozen=True)
+class Loop:
+    """A loop of the connection graph: the one a closing connection makes."""
+
+    closing_joint: int
+    parts: tuple[int, ...]  # in order around the loop, ENVIRONMENT for the ground
+    joints: tuple[int, ...]  # joints around the loop, the closing one last
 
 
 @dataclass(frozen=True)
@@ -426,30 +438,54 @@ class Model:
         joint = self.joints[edge.joint]
         return (joint.a, joint.b) if edge.parent_side == "a" else (joint.b, joint.a)
 
-    def on_loops(self) -> frozenset[Connection]:
-        """The connections that lie on a loop: each closing connection and the
-        tree's connections from its two sides up to where their paths meet
-        (the environments counting as one place)."""
-        up: dict[int, tuple[int, int]] = {}  # part -> (the part above it, the connection's joint)
+    def loop_node(self, part: int) -> int:
+        """A part as a place on a loop: ENVIRONMENT for any environment part."""
+        return ENVIRONMENT if self.parts[part].environment else part
+
+    @cached_property
+    def loops(self) -> tuple[Loop, ...]:
+        """One loop per closing joint: its tree paths up to where they meet."""
+        parent: dict[int, tuple[int, int]] = {}  # child part -> (parent part, joint)
         for edge in self.tree:
-            parent, child = self.placed_sides(edge)
-            up[child.part] = (parent.part, edge.joint)
+            up, down = self.placed_sides(edge)
+            parent[down.part] = (self.loop_node(up.part), edge.joint)
 
-        def climb(part: int) -> list[tuple[int, int]]:
-            """(part, joint to the part above) from `part` up to an environment."""
-            path = []
-            while part in up:
-                above, joint = up[part]
-                path.append((part, joint))
-                part = above
-            return path
+        def path(part: int) -> list[tuple[int, int]]:
+            """(node, joint to its parent) from part up to the environment."""
+            out = []
+            node = self.loop_node(part)
+            while node != ENVIRONMENT:
+                up, joint = parent[node]
+                out.append((node, joint))
+                node = up
+            return out
 
-        found: set[int] = set()
+        loops = []
         for j in self.closures:
-            first, second = climb(self.joints[j].a.part), climb(self.joints[j].b.part)
-            shared = {part for part, _ in first} & {part for part, _ in second}
-            found |= {joint for part, joint in (*first, *second) if part not in shared} | {j}
-        return frozenset(self.joints[j].connection for j in found)
+            joint = self.joints[j]
+            up_a, up_b = path(joint.a.part), path(joint.b.part)
+            nodes_b = [n for n, _ in up_b]
+            # climb from a until we meet b's path (or the environment)
+            climb_a: list[tuple[int, int]] = []
+            meet = ENVIRONMENT
+            for node, via in up_a:
+                if node in nodes_b:
+                    meet = node
+                    break
+                climb_a.append((node, via))
+            climb_b: list[tuple[int, int]] = []
+            for node, via in up_b:
+                if node == meet:
+                    break
+                climb_b.append((node, via))
+            parts = [n for n, _ in climb_a] + [meet] + [n for n, _ in reversed(climb_b)]
+            joints = [e for _, e in climb_a] + [e for _, e in reversed(climb_b)] + [j]
+            loops.append(Loop(j, tuple(parts), tuple(joints)))
+        return tuple(loops)
+
+    def on_loops(self) -> frozenset[Connection]:
+        """The connections that lie on a loop (`loops`)."""
+        return frozenset(self.joints[j].connection for loop in self.loops for j in loop.joints)
 
     @cached_property
     def tree_child(self) -> dict[int, int]:
@@ -1003,7 +1039,8 @@ def _rest_on_the_top_line(
     for side in (joint.a, joint.b):
         if not parts[side.part].environment or side.primitive.variant != "Rod":
             continue
-        placed = (euler_matrix(parts[side.part].rotation) @ euler_matrix(side.primitive.rotation))[:3, :3]
+        part = parts[side.part]
+        placed = (frame_matrix(part.position, part.rotation) @ side.primitive.base_frame())[:3, :3]
         # the normal at spin s is Rz(s) (0, 1, 0) in the rod's frame: its height is
         # -sin(s) placed[2, 0] + cos(s) placed[2, 1], highest at s = atan2(-placed[2, 0], placed[2, 1])
         if np.hypot(placed[2, 0], placed[2, 1]) < UPRIGHT:

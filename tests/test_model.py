@@ -53,9 +53,9 @@ def _reached_through_reference_closures(model: Model) -> set[str]:
     written connection was its closure; our tree follows a canonical order and
     may cross it instead. The reference's answers leave their loops open by up to
     some centimetres, so such a part sits elsewhere there by construction."""
-    from fabhal.check.cycles import _written_last, find_loops
+    from fabhal.check.cycles import _written_last
 
-    closing = {_written_last(model, loop).index for loop in find_loops(model)}
+    closing = {_written_last(model, loop).index for loop in model.loops}
     parent = {}
     for edge in model.tree:
         up, down = model.placed_sides(edge)

@@ -21,10 +21,9 @@ import numpy as np
 from fabhal.check.context import CheckContext
 from fabhal.diagnostics import Diagnostic, error, note, warning
 from fabhal.kinematics.frames import Array, frame_matrix
-from fabhal.model import Joint, Model, Side
+from fabhal.model import ENVIRONMENT, Joint, Loop, Model, Side
 from fabhal.optimize import least_squares_objective, minimize
 
-ENVIRONMENT = -1  # all environment parts act as one rigid link
 MAX_STARTS = 16
 CLOSED_MM = 1e-6  # a loop counts as closed when every residual is below this (mm, or mm-equivalent)
 # a loop the closure solve leaves open by less than this still closes in the real
@@ -39,13 +38,6 @@ CLOSE_EVALUATIONS = 200  # per start of the closure solve
 POLISH_FACTOR = 10
 _SLACK_MM = 1e-3  # tolerance on link ranges, as the reference
 Samples = tuple[Array, float]  # connector positions and their grid's resolution (mm)
-
-
-@dataclass(frozen=True)
-class Loop:
-    closing_joint: int
-    parts: tuple[int, ...]  # in order around the loop, ENVIRONMENT for the ground
-    joints: tuple[int, ...]  # joints around the loop, the closing one last
 
 
 @dataclass(frozen=True)
@@ -66,51 +58,6 @@ class LoopReport:
     worst_angle_deg: float
     starts_tried: int  # fewer than MAX_STARTS when the time limit ended the search
     play_mm: float = 0.0  # the largest residual the loops close with as play (0: exactly)
-
-
-def find_loops(model: Model) -> list[Loop]:
-    """One loop per closing joint: its tree paths to the common ancestor."""
-    parent: dict[int, tuple[int, int]] = {}  # child part -> (parent part, joint)
-    for edge in model.tree:
-        up, down = model.placed_sides(edge)
-        parent[down.part] = (_node(model, up.part), edge.joint)
-
-    def path(part: int) -> list[tuple[int, int]]:
-        """(node, joint to its parent) from part up to the environment."""
-        out = []
-        node = _node(model, part)
-        while node != ENVIRONMENT:
-            up, joint = parent[node]
-            out.append((node, joint))
-            node = up
-        return out
-
-    loops = []
-    for j in model.closures:
-        joint = model.joints[j]
-        up_a, up_b = path(joint.a.part), path(joint.b.part)
-        nodes_b = [n for n, _ in up_b]
-        # climb from a until we meet b's path (or the environment)
-        climb_a: list[tuple[int, int]] = []
-        meet = ENVIRONMENT
-        for node, via in up_a:
-            if node in nodes_b:
-                meet = node
-                break
-            climb_a.append((node, via))
-        climb_b: list[tuple[int, int]] = []
-        for node, via in up_b:
-            if node == meet:
-                break
-            climb_b.append((node, via))
-        parts = [n for n, _ in climb_a] + [meet] + [n for n, _ in reversed(climb_b)]
-        joints = [e for _, e in climb_a] + [e for _, e in reversed(climb_b)] + [j]
-        loops.append(Loop(j, tuple(parts), tuple(joints)))
-    return loops
-
-
-def _node(model: Model, part: int) -> int:
-    return ENVIRONMENT if model.parts[part].environment else part
 
 
 # ---------------------------------------------------------------- link ranges
@@ -168,7 +115,7 @@ def loop_links(model: Model, loop: Loop) -> list[Link]:
     for j in loop.joints:
         joint = model.joints[j]
         for side in (joint.a, joint.b):
-            node = _node(model, side.part)
+            node = model.loop_node(side.part)
             if node in loop.parts:
                 sides_by_node.setdefault(node, []).append(side)
     for node in loop.parts:
@@ -240,8 +187,7 @@ def close_loops(
         return LoopReport(x0, True, 0.0, 0.0, 0)
     free = np.array(
         sorted(
-            {i for loop in find_loops(model) for j in loop.joints for i in _dof_indices(model, j)}
-            - model.pinned
+            {i for loop in model.loops for j in loop.joints for i in _dof_indices(model, j)} - model.pinned
         )
     )
     low, high = model.bounds()
@@ -309,7 +255,7 @@ def _report(model: Model, x: Array, closed: bool, tried: int, play_mm: float = 0
 
 def check(ctx: CheckContext) -> tuple[list[Diagnostic], LoopReport | None]:
     model = ctx.model
-    loops = find_loops(model)
+    loops = model.loops
     problems = []
     for loop in loops:
         links = loop_links(model, loop)

@@ -234,11 +234,9 @@ def solve(model: Model, options: SolveOptions, loop_start: Array | None = None) 
     first = _solve_once(model, options, loop_start)
     # without gravity, or from a continued start, one try: the member's own solve makes the others
     one_try = not options.gravity or options.start is not None
-    needed = _loops_would_turn(model, first)
-    if needed is not None and not one_try:
-        turning = _with_loops_turning(model, options, loop_start, needed)
-        if turning is not None:
-            return turning
+    turning = None if one_try else _with_loops_turning(model, options, loop_start, first)
+    if turning is not None:
+        return turning
     jammed = _jammed_rings(model, first) if first.status == "solved" and not one_try else []
     if jammed:
         first = _untwisted(model, options, first, jammed)
@@ -377,17 +375,21 @@ SQUARE_NEEDED = {
 
 
 def _with_loops_turning(
-    model: Model, options: SolveOptions, loop_start: Array | None, needed: str
+    model: Model, options: SolveOptions, loop_start: Array | None, result: Solution
 ) -> Solution | None:
-    """A hack with loops that needs its plain hooks and rings to turn about the
-    line of their contact (`needed`: why, `_loops_would_turn`): solved again (the
+    """A hack with loops whose `result` needs its plain hooks and rings to turn
+    about the line of their contact (`_loops_would_turn` says why): solved again (the
     whole `solve`) with every plain hook and ring round a rod, or on another
     hook or ring, free to (`model._turning_on_its_contact`), from the loops'
     closing start with those turns square (it closes them still; step 1 alone
     let a stick's loop come open), with the loops' play kept; that result
     where it hangs at rest, N508 saying which turned most (none where all rest
     square: the square model's start was at fault). None where it does not
-    hang at rest either, or where nothing in it could turn so."""
+    hang at rest either, where `result` needs no turn, or where nothing in it
+    could turn so."""
+    needed = _loops_would_turn(model, result)
+    if needed is None:
+        return None
     turning = build_model(model.program, turning_on_contact=True)
     if len(turning.variables) == len(model.variables):
         return None  # no plain hook or ring on what it goes round: the same model, the same answer
@@ -468,11 +470,9 @@ def _solved_turned(
         other = _solve_once(turned, replace(options, seed=seed), None)
         if other.status == "solved":
             return other
-        needed = _loops_would_turn(turned, other)
-        if needed is not None:  # as `solve` does the design as written
-            turning = _with_loops_turning(turned, replace(options, seed=seed), None, needed)
-            if turning is not None:
-                return turning
+        turning = _with_loops_turning(turned, replace(options, seed=seed), None, other)  # as `solve` does
+        if turning is not None:
+            return turning
         if not other.falls:
             return None  # it holds together but not at rest: retried only where it falls, as a design is
     return None
@@ -1004,7 +1004,7 @@ def _choice_note(
 def _written(model: Model, i: int, x: Array) -> str:
     """DoF i's value as the program would write it (docs/language.md, `set`)."""
     variable = model.variables[i]
-    value = x[i] % 360.0 if variable.dof.periodic else x[i]  # a turn as a builder writes it
+    value = aim_mod.within_a_turn(variable.dof, float(x[i]))
     return f"`set ({variable.name}: {value:.6g})` (--dofs lists every setting)"
 
 

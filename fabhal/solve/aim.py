@@ -40,7 +40,7 @@ from numpy.typing import NDArray
 from fabhal.kinematics.frames import Array
 from fabhal.model import Model
 from fabhal.optimize import least_squares_objective
-from fabhal.primitives import is_flex_angle
+from fabhal.primitives import Dof, is_flex_angle
 from fabhal.solve import target as target_mod
 from fabhal.solve.energy import Energy
 from fabhal.solve.forces import friction_slides, slide_dofs
@@ -181,6 +181,12 @@ def aim(
 _stalled = partial(residual_stalled, steps=AIM_STALL_STEPS, gain_mm=AIM_GAIN_MM)
 
 
+def within_a_turn(dof: Dof, value: float) -> float:
+    """A DoF's value as a builder sets it: one that turns freely within one
+    turn (a bottle turned 790 degrees on a floor is at 70), others as they are."""
+    return value % 360.0 if dof.periodic else value
+
+
 def setting_text(model: Model, i: int, value: float, length: float) -> str:
     """A DoF's value as a builder sets it: along a primitive in mm (`length`: mm
     per unit, steps.mm_per_unit); a tilt (a lean) from upright, a flexing
@@ -189,8 +195,7 @@ def setting_text(model: Model, i: int, value: float, length: float) -> str:
     variable = model.variables[i]
     dof = variable.dof
     where = variable.name.rsplit(".", 1)[0]  # part.primitive
-    if dof.periodic:  # a turn as a builder sees it: a bottle turned 790 degrees on a floor is at 70
-        value %= 360.0
+    value = within_a_turn(dof, value)
     if not dof.periodic and dof.high <= 1.0:
         return f"{value * length:.0f} mm along {where} (of {length:.0f}){_counted_from(model, i)}"
     primitive = model.side_of(i).primitive
