@@ -826,14 +826,14 @@ def build_model(program: FlatProgram, turning_on_contact: bool = False) -> Model
     is then added in the same order whatever the order of the declarations
     (the diaper caddy, its parts declared in reverse, once came to rest 27 mm
     elsewhere: its valley is flat enough for rounding to choose).
-    `turning_on_contact`: in a hack with loops, plain hooks and rings round rods,
-    hooks and rings turn about the line of their contact (`_turning_on_its_contact`)."""
+    `turning_on_contact`: plain hooks and rings round rods (and, on a loop, on
+    hooks and rings) turn about the line of their contact (`_turning_on_its_contact`)."""
     by_name = _assemble(program, tuple(sorted(program.parts, key=lambda part: part.name)))
     environments = [i for i, part in enumerate(by_name.parts) if part.environment]
     reached = [by_name.placed_sides(edge)[1].part for edge in by_name.tree]
     order = [*environments, *reached, *by_name.unplaced]
     loops = bool(by_name.closures)
-    turning = by_name.on_loops() if loops and turning_on_contact else None
+    turning = by_name.on_loops() if turning_on_contact else None
     return _assemble(program, tuple(by_name.parts[i] for i in order), loops, turning)
 
 
@@ -953,9 +953,10 @@ def _turning_on_its_contact(primitive: Primitive, other: Primitive, in_a_loop: b
     lies in both hooks' bottoms; a broom on two chains of a curtain ring and a
     flat S-hook under a shower rod could only lie across the rod, and knotted.
     Only where the solver finds that (`solve._with_loops_turning`): elsewhere
-    the turn carries nothing (without loops the weight's line is the
-    contact's) and, given to every such hook, it cost the reading nook,
-    balanced on knife edges, 20 s instead of 2 for the same not-at-rest result.
+    the turn carries nothing (without loops, or a contact with something else
+    that closes one, the weight's line is the contact's) and, given to every
+    such hook, it cost the reading nook, balanced on knife edges, 20 s instead
+    of 2 for the same not-at-rest result.
     A hook on a hook below the loops is left square: what hangs there turns
     about the vertical for free, and the turn only gave the aim a DoF that
     carries nothing (a mug on an S-hook under a flag stick in two ceiling

@@ -357,8 +357,14 @@ def _loops_would_turn(model: Model, result: Solution) -> str | None:
     their contact (`_with_loops_turning`): "E514" where a rod held square
     carries what a contact at a point cannot, "E423" where the loops close
     only with two parts in one place (a turned hook may close them apart);
-    None where neither."""
-    if not model.closures or model.turning_on_contact:
+    None where neither. A tree that rests against something is loops closed
+    through that contact: a newcomer's hanger, its hook round a car seat's
+    upright headrest post and its side against the seat back, was `not at
+    rest` (E514) where the real hook turns on the post. A tree that rests on
+    nothing hangs with the weight's line through each contact, and a turn
+    there carries nothing (a rod held in a ring's side by a written setting
+    stays E514: what holds it there is the setting, not the turn)."""
+    if model.turning_on_contact or not (model.closures or result.contacts):
         return None
     if any(isinstance(fall, Swivel) for fall in result.falls):
         return "E514"
@@ -377,7 +383,8 @@ SQUARE_NEEDED = {
 def _with_loops_turning(
     model: Model, options: SolveOptions, loop_start: Array | None, result: Solution
 ) -> Solution | None:
-    """A hack with loops whose `result` needs its plain hooks and rings to turn
+    """A hack with loops (or a tree resting on something, which that contact
+    closes into loops) whose `result` needs its plain hooks and rings to turn
     about the line of their contact (`_loops_would_turn` says why): solved again (the
     whole `solve`) with every plain hook and ring round a rod, or on another
     hook or ring, free to (`model._turning_on_its_contact`), from the loops'

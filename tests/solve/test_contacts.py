@@ -388,12 +388,17 @@ def test_a_surface_environment_is_a_solid_wall(tmp_path: Path) -> None:
     hanging off its handle) would cross the wall's face: it must stay out of it
     (no point more than 1 mm in) and lean away, its centre of mass on the far
     side of the rod from the wall (y < 0). The wall was once skipped: the
-    look-up only searched the surface's 0.1 mm drawing, not its slab."""
+    look-up only searched the surface's 0.1 mm drawing, not its slab. Its
+    handle held square round the 2 mm rod, the wall's push on its rim's
+    corner, off the rod's line, left the contact carrying 1.13 N along the
+    wire (E514, not at rest); the handle turns on the rod (N508: the rest
+    touching the wall closes the tree into a loop), and it hangs at rest."""
     program = tmp_path / "mug.fhl"
     program.write_text(MUG_BY_A_WALL)
     result = api.solve(program)
     solution = result.solution
     assert solution is not None
+    assert result.status == "solved" and "N508" in {d.code for d in result.diagnostics}
     assert max(deepest(solution).values()) < 1.0
     mug = solution.model.part_index("mug")
     centre = solution.frames[mug][:3, :3] @ mass_properties(solution.model.parts[mug].spec).center_of_mass

@@ -111,7 +111,8 @@ def test_the_lagrangians_hessian_matches_differences_of_its_gradient(program: st
 
 @dataclass(frozen=True)
 class MugByTheWall:
-    """The mug resting against the wall, solved: where it rests (`x`), swung
+    """The mug resting against the wall, solved: where it rests, swung
+    towards the wall until a settle point presses (`x`), swung
     30 degrees off the wall (`away`: nothing touches), gravity's energy and
     it with the springs against the environment (`pairs`)."""
 
@@ -128,13 +129,21 @@ def mug_by_the_wall(tmp_path: Path) -> MugByTheWall:
     program.write_text(MUG_BY_A_WALL)
     result = api.solve(program)
     assert result.solution is not None and result.solution.contacts
-    model, x = result.solution.model, result.solution.x
+    model, rest = result.solution.model, result.solution.x
     masses, centres = _mass_table(model)
     world = contact_pairs(model).against({i for i, part in enumerate(model.parts) if part.environment})
     gravity = potential(model, masses, centres)
     spin = next(i for i, v in enumerate(model.variables) if v.name == "rod.rod.spin")
-    away = x.copy()
-    away[spin] += 30.0 if result.solution.frames[model.part_index("mug")][1, 3] < 0 else -30.0
+    off_the_wall = 1.0 if result.solution.frames[model.part_index("mug")][1, 3] < 0 else -1.0
+    away = rest.copy()
+    away[spin] += 30.0 * off_the_wall
+    # it rests on its rim's corner, which the check's finer points found between the settle's
+    # own: swung towards the wall (by tenths of a degree) until one of those presses too
+    x = next(
+        at
+        for at in (rest - np.eye(len(rest))[spin] * off_the_wall * tenth / 10.0 for tenth in range(51))
+        if len(_inside(model, model.forward(at), world).depth)
+    )
     return MugByTheWall(model, x, away, world, gravity, with_contacts(model, gravity, world, _weight(masses)))
 
 

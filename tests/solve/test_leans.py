@@ -475,3 +475,49 @@ target broom.tube at (1400, 127, 2040) rot (0, 90, 0)
     middle, along = broom_axis(result.solution)
     assert 2039.8 - 0.1 <= middle[2] <= 2039.8 + 15.6
     assert np.degrees(np.arcsin(abs(along[2]))) < 0.1
+
+
+def test_a_tree_resting_on_the_world_turns_its_hook_on_its_rod(tmp_path: Path) -> None:
+    """A newcomer's clip light on the bar of a wire hanger whose hook goes
+    round a car seat's upright headrest post (a tree: no loops). The hanger
+    hangs beside the seat and its side rests on the seat back, which closes
+    the tree into a loop through that contact: held square round the post,
+    the hook carried 83.6 N mm about the line of its contact, which a post
+    touching a wire at a point cannot (E514, not at rest). Solved again with
+    the hook free to turn on the post (N508), it hangs at rest with the hook
+    turned until its wire jams on the post: the hook's inner radius 20 - 3.1
+    = 16.9 mm round the 5.7 mm post, cos^2 b = 5.7 / 16.9, b = 54.50 degrees.
+    Hand statics: the hanger and the light weigh (45 + 200) g x 9.81 = 2.403
+    N, all of it carried by the post and the seat (the upward parts of the
+    post's force on the hook and of the seat's contact forces). Tolerances:
+    0.6 degrees on the jam (the settle stops within its tolerance of the
+    bound, and N508 rounds to a degree), 0.01 N on the weight (the settle's
+    leftover 1e-3 of it), 1 mm of depth in the seat (the contacts' give)."""
+    import math
+
+    text = (
+        "environment seat = CarSeat() at (0, 0, 0)\n"
+        "hanger = Hanger()\n"
+        "light = ClipLight()\n"
+        "connect hanger.hook1 -- seat.rod1\n"
+        "connect light.clip -- hanger.rod\n"
+        "target light at (50, 600, 400)\n"
+    )
+    result = solve_text(tmp_path, text)
+    assert result.status == "solved", [d.message for d in result.diagnostics]
+    (note,) = [d for d in result.diagnostics if d.code == "N508"]
+    assert note.span is not None and note.span.line == 4
+    assert note.message.startswith("turned: `hanger.hook1` rests turned ")
+    assert "its contact with `seat.rod1`" in note.message
+    solution = result.solution
+    names = [v.name for v in solution.model.variables]
+    jam = math.degrees(math.acos(math.sqrt(5.7 / 16.9)))
+    assert abs(solution.x[names.index("hanger.hook1.phi")] - 90.0) == pytest.approx(jam, abs=0.6)
+    assert solution.contacts and all(contact.depth < 1.0 for contact in solution.contacts)
+    assert solution.forces is not None
+    (joint,) = [j for j in solution.model.joints if str(j.connection.a) == "hanger.hook1"]
+    post_on_hook = solution.forces[joint.index]  # the a side's force on the b side
+    if str(joint.endpoint(joint.a)) == "hanger.hook1":
+        post_on_hook = -post_on_hook
+    upward = post_on_hook[2] + sum(contact.force[2] for contact in solution.contacts)
+    assert upward == pytest.approx(0.245 * 9.81, abs=0.01)
