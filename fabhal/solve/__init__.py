@@ -751,14 +751,14 @@ def _solve_once(model: Model, options: SolveOptions, loop_start: Array | None) -
     x = settled.x
     frames = model.part_frames(x)
     if options.gravity and not settled.falls and not settled.contacts:  # nothing leans on the world
-        aside = reach.hangs_aside(model, goal, x) or reach.hangs_below(model, goal, x)
-        if aside is not None:
+        away = reach.hangs_away(model, goal, x)
+        if away:
             turned = target_mod.errors(goal, target_mod.achieved(goal, frames))[1]
             if not out_of_reach_mm and turned <= reach.REACH_DEG:
                 # W505 said only the rotation kept step 1 (gravity off) from the request; hanging,
                 # it is turned as asked and rests beside or below it for what W506 or W511 says
                 notes = [n for n in notes if n.code != "W505"]
-            notes.append(aside)
+            notes.extend(away)
     if not reach.out_of_reach(target_mod.errors(goal, target_mod.achieved(goal, frames))):
         # it hangs within reach of the request: step 1 (gravity off) missed a reach the parts
         # have, and W505's "they reach only so far" would be false (a basket on a ring and an

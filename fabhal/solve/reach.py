@@ -198,7 +198,8 @@ def hangs_aside(model: Model, goal: target_mod.TargetGoal, x: Array) -> Diagnost
     rod the hack hangs from than the target does, by more than REACH_MM: what
     hangs free from it comes to rest with its centre of mass under it (under a
     rod: in the vertical plane through its axis; along it, where the hook is
-    placed), so no choice of the builder's brings the target over there. Only
+    placed, as far as the rod's ends: `_beyond_its_end`), so no choice of the
+    builder's brings the target over there. Only
     for a hack that hangs from one support (no loops, nothing standing, the
     support's connection not held rigid); the caller leaves out hacks that lean
     on the environment, which may hold them aside."""
@@ -213,15 +214,36 @@ def hangs_aside(model: Model, goal: target_mod.TargetGoal, x: Array) -> Diagnost
         axis = (frames[side.part] @ side.primitive.base_frame())[:2, 2]  # a rod lies along its z
         length = float(np.linalg.norm(axis))
         along = axis / length if length > STEEP_AXIS else along
+    requested, reached = goal.requested[:3, 3], target_mod.achieved(goal, frames)[:3, 3]
+    if np.linalg.norm(requested - reached) <= REACH_MM:
+        return None
+    return _beside_the_support(model, side, joint, anchor, along, requested, reached) or _beyond_its_end(
+        model, side, joint, frames, along, requested, reached
+    )
+
+
+def hangs_away(model: Model, goal: target_mod.TargetGoal, x: Array) -> tuple[Diagnostic, ...]:
+    """Why a hack hanging free from one support hangs away from its request:
+    beside it (W506, which says where under the support to ask instead), or
+    beyond the rod's end and below it (W506 and W511: each says one fix)."""
+    aside = hangs_aside(model, goal, x)
+    if aside is not None and BEYOND_THE_END not in aside.message:
+        return (aside,)
+    return tuple(d for d in (aside, hangs_below(model, goal, x)) if d is not None)
+
+
+def _beside_the_support(
+    model: Model, side: Side, joint: Joint, anchor: Array, along: Array, requested: Array, reached: Array
+) -> Diagnostic | None:
+    """W506 where the request lies farther across the support than the target."""
 
     def aside(point: Array) -> Array:
         """Horizontal offset from the support, across it."""
         offset = (point - anchor)[:2]
         return offset - (offset @ along) * along
 
-    requested, reached = goal.requested[:3, 3], target_mod.achieved(goal, frames)[:3, 3]
     wanted, got = (float(np.linalg.norm(aside(point))) for point in (requested, reached))
-    if np.linalg.norm(requested - reached) <= REACH_MM or wanted - got <= REACH_MM:
+    if wanted - got <= REACH_MM:
         return None
     under = requested[:2] - aside(requested) + aside(reached)  # the request, moved across under it
     place = ", ".join(str(round(float(value))) for value in (*under, requested[2]))  # never "-0"
@@ -233,6 +255,38 @@ def hangs_aside(model: Model, goal: target_mod.TargetGoal, x: Array) -> Diagnost
         model.program.targets[0].span,
         f"ask for a place under the support, such as ({place}) at the requested height, or hang the "
         "target from a support above the request",
+    )
+
+
+BEYOND_THE_END = "beyond the end of"
+
+
+def _beyond_its_end(
+    model: Model, side: Side, joint: Joint, frames: Array, along: Array, requested: Array, reached: Array
+) -> Diagnostic | None:
+    """W506 where the request lies beyond an end of the rod the hack hangs
+    from, farther than the target: the hook is placed along the rod, but only
+    as far as its ends (a roll on a hanger from a closet rod's end asked for 90
+    mm past it was told only that it hung 28 mm low)."""
+    if not along.any():
+        return None
+    rod = frames[side.part] @ side.primitive.base_frame()  # centred on the rod's middle
+    half = float(side.primitive.params["length"]) / 2.0 * float(np.linalg.norm(rod[:2, 2]))
+    wanted, got = ((point - rod[:3, 3])[:2] @ along for point in (requested, reached))
+    beyond = abs(wanted) - half
+    if beyond <= REACH_MM or abs(wanted - got) <= REACH_MM or np.sign(wanted) * (wanted - got) <= 0.0:
+        return None
+    within = requested[:2] - np.sign(wanted) * beyond * along  # the request, moved back to the end
+    place = ", ".join(str(round(float(value))) for value in (*within, requested[2]))
+    return warning(
+        "W506",
+        f"the target hangs beside its request: the request lies {beyond:.0f} mm {BEYOND_THE_END} "
+        f"`{joint.endpoint(side)}`, which the hack hangs from; what hangs from it is placed along it "
+        f"only as far as its ends (here the target hangs {abs(wanted - got):.0f} mm short of the request "
+        "along it)",
+        model.program.targets[0].span,
+        f"ask for a place within its length, such as ({place}), or hang the hack from a support that "
+        "reaches over the request",
     )
 
 
@@ -340,4 +394,4 @@ def _hanging_from(model: Model, goal: target_mod.TargetGoal) -> tuple[Side, Join
     return side, joint
 
 
-__all__ = ["REACH_DEG", "REACH_MM", "diagnose", "hangs_aside", "hangs_below", "out_of_reach"]
+__all__ = ["REACH_DEG", "REACH_MM", "diagnose", "hangs_aside", "hangs_away", "hangs_below", "out_of_reach"]

@@ -194,6 +194,33 @@ def test_a_request_beside_a_rod_is_said_so_and_one_along_it_is_not(tmp_path: Pat
     assert aside_warnings(tmp_path, HUNG_FROM_A_ROD.format(y=0)) == []
 
 
+def test_a_request_beyond_the_end_of_the_rod_is_said_so_with_how_far_below(tmp_path: Path) -> None:
+    """The same mug asked for at x = 400: the rod (500 mm, centred on x = 0)
+    ends at x = 250, so the request lies 400 - 250 = 150 mm beyond its end;
+    the hook is placed at that end (the aim's nearest) and the mug hangs
+    with its centre of mass under it; its frame lies 44.4 mm from that
+    centre (the mesh's, (10.3, 0, 43.2) in the mug's frame), so within
+    44.4 mm of x = 250 along the rod: 150 -+ 44.4, 105-195 mm short. W506
+    says how far beyond the end and suggests the request moved back to the
+    end, (250, 0, 1400); the height is W511's
+    (the mug hangs lower than the 100 mm asked below the rod: the S-hook's
+    two arcs, 64 mm centre to centre, and the mug's frame well below its
+    handle). Was: only W511, the 150 mm along the rod unexplained. A request
+    within the rod's length (x = 100) says nothing of its ends."""
+    path = tmp_path / "beyond.fhl"
+    path.write_text(HUNG_FROM_A_ROD.format(y=0).replace("target mug at (100,", "target mug at (400,"))
+    result = api.solve(path)
+    assert result.status == "solved"
+    (beyond,) = [d for d in result.diagnostics if d.code == "W506"]
+    assert re.search(r"the request lies 150 mm beyond the end of `rod`", beyond.message), beyond.message
+    short = float(re.search(r"hangs (\d+) mm short of the request along it", beyond.message).group(1))
+    assert 105.0 <= short <= 195.0
+    x, y, z = map(float, re.search(r"such as \((-?\d+), (-?\d+), (-?\d+)\)", beyond.help).groups())
+    assert (x, y, z) == (250.0, 0.0, 1400.0)
+    assert [d.code for d in result.diagnostics if d.code == "W511"] == ["W511"]
+    assert aside_warnings(tmp_path, HUNG_FROM_A_ROD.format(y=0)) == []
+
+
 FEEDER_ON_TWO_HOOKS = """\
 environment ceiling = CeilingHook() at (0, 0, 2000)
 a = DoubleHook()
