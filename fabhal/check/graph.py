@@ -31,6 +31,7 @@ def check(ctx: CheckContext) -> list[Diagnostic]:
             )
         )
     problems.extend(_target_frame_off_its_part(ctx))
+    problems.extend(_written_in_metres(ctx))
     for target in program.targets[:1]:
         if program.part(target.part).environment:
             problems.append(
@@ -186,6 +187,38 @@ def _target_frame_off_its_part(ctx: CheckContext) -> list[Diagnostic]:
             )
         )
     return problems
+
+
+# every place a program writes within this of the origin (some not at it) reads as metres
+METRES_SAID_MM = 10.0
+
+
+def _written_in_metres(ctx: CheckContext) -> list[Diagnostic]:
+    """W425: the environments' places and the target's all written within
+    METRES_SAID_MM of the origin, not all at it: a room is metres across, so
+    such a program was written in metres (a ceiling hook at (0, 0, 2) is 2 mm
+    above the floor, and a mug asked for at (0, 0, 1.8) hangs under the floor,
+    `solved`). Lengths are millimetres."""
+    program = ctx.program
+    environments = [part.position for part in program.parts if part.environment]
+    if not program.targets or not environments:
+        return []
+    places = [*environments, program.targets[0].position]
+    farthest = max(abs(value) for place in places for value in place)
+    if not 0.0 < farthest <= METRES_SAID_MM:
+        return []
+    target = program.targets[0]
+    in_mm = ", ".join(f"{value * 1000:g}" for value in target.position)
+    return [
+        warning(
+            "W425",
+            f"every place this program writes lies within {farthest:g} mm of the origin: lengths in FabHaL "
+            "are millimetres, and these read like metres",
+            target.span,
+            f"write millimetres: the target at ({in_mm}) if these were metres, and each environment's "
+            "`at (...)` likewise",
+        )
+    ]
 
 
 def _fixed_without_freedom(ctx: CheckContext) -> list[Diagnostic]:

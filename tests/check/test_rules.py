@@ -40,6 +40,8 @@ EXPECTED = {
     "written_too_close": ["N419", "E418"],
     # the handle basket's own frame lies 164 mm from its body (its bounding box, from its mesh)
     "target_frame_off_the_part": ["N424"],
+    # every place within 2 mm of the origin: metres (the hook 2 mm above the floor)
+    "written_in_metres": ["W425"],
 }
 
 
@@ -65,6 +67,23 @@ def test_every_gallery_program_checks_clean(program: Path) -> None:
     assert result.ok
     # notes are fine (a tight but workable fit); warnings and errors are not
     assert [d for d in result.diagnostics if d.severity.value != "note"] == []
+
+
+def test_places_read_as_metres_only_where_all_lie_near_the_origin(tmp_path: Path) -> None:
+    """W425 counts every environment's place and the target's: a hook 2 m up
+    written in millimetres says nothing, nor does a program whose places are
+    all the origin (a request at the environment's own frame, nothing read as
+    metres), nor one place of 12 mm among metre-like ones (past 10 mm)."""
+    metres = (GOLDEN / "written_in_metres.fhl").read_text()
+    for text, said in (
+        (metres, ["W425"]),
+        (metres.replace("(0, 0, 2)", "(0, 0, 2000)").replace("(0, 0, 1.8)", "(0, 0, 1800)"), []),
+        (metres.replace("(0, 0, 2)", "(0, 0, 0)").replace("(0, 0, 1.8)", "(0, 0, 0)"), []),
+        (metres.replace("(0, 0, 2)", "(12, 0, 2)"), []),
+    ):
+        program = tmp_path / "hack.fhl"
+        program.write_text(text)
+        assert [d.code for d in api.check(program).diagnostics if d.code == "W425"] == said, text
 
 
 def test_loops_close_to_a_micron_when_the_check_passes() -> None:
