@@ -23,7 +23,7 @@ from fabhal.diagnostics import Diagnostic, warning
 from fabhal.kinematics.frames import Array
 from fabhal.model import Joint, Model, Side
 from fabhal.solve import target as target_mod
-from fabhal.solve.steps import Problem, fit_target
+from fabhal.solve.steps import FRICTION, Problem, fit_target
 
 # a builder places and aims a hack by eye to about a centimetre and ten degrees;
 # a fit this close is reported as reached (the table's error says how close)
@@ -192,108 +192,167 @@ LINE_SUPPORTS = ("rod", "tube")
 STEEP_AXIS = 0.1
 
 
-def hangs_aside(model: Model, goal: target_mod.TargetGoal, x: Array) -> Diagnostic | None:
-    """W506 for a settled hack whose target hangs farther than REACH_MM from its
-    request, where the request lies farther to the side of the hook, ring or
-    rod the hack hangs from than the target does, by more than REACH_MM: what
-    hangs free from it comes to rest with its centre of mass under it (under a
-    rod: in the vertical plane through its axis; along it, where the hook is
-    placed, as far as the rod's ends: `_beyond_its_end`), so no choice of the
-    builder's brings the target over there. Only
-    for a hack that hangs from one support (no loops, nothing standing, the
-    support's connection not held rigid); the caller leaves out hacks that lean
-    on the environment, which may hold them aside."""
+@dataclass(frozen=True)
+class _Hanging:
+    """A settled hack hanging free from one support (`_hanging_from`): the
+    support's side and connection, the parts' frames, where the hack touches
+    the support, the support's horizontal direction (zero for a hook or ring,
+    or a rod steeper than STEEP_AXIS), and the target's requested and reached
+    places (world, mm)."""
+
+    side: Side
+    joint: Joint
+    frames: Array
+    anchor: Array
+    along: Array
+    requested: Array
+    reached: Array
+
+
+def _hanging(model: Model, goal: target_mod.TargetGoal, x: Array) -> _Hanging | None:
     found = _hanging_from(model, goal)
     if found is None:
         return None
     side, joint = found
     frames = model.part_frames(x)
     anchor = model.connector_frame(side, x, frames)[:3, 3]
-    along = np.zeros(2)  # the support's horizontal direction; none for a point
+    along = np.zeros(2)
     if side.primitive.kind in LINE_SUPPORTS:
         axis = (frames[side.part] @ side.primitive.base_frame())[:2, 2]  # a rod lies along its z
         length = float(np.linalg.norm(axis))
         along = axis / length if length > STEEP_AXIS else along
     requested, reached = goal.requested[:3, 3], target_mod.achieved(goal, frames)[:3, 3]
-    if np.linalg.norm(requested - reached) <= REACH_MM:
-        return None
-    return _beside_the_support(model, side, joint, anchor, along, requested, reached) or _beyond_its_end(
-        model, side, joint, frames, along, requested, reached
-    )
+    return _Hanging(side, joint, frames, anchor, along, requested, reached)
 
 
 def hangs_away(model: Model, goal: target_mod.TargetGoal, x: Array) -> tuple[Diagnostic, ...]:
-    """Why a hack hanging free from one support hangs away from its request:
-    beside it (W506, which says where under the support to ask instead), or
-    beyond the rod's end and below it (W506 and W511: each says one fix)."""
-    aside = hangs_aside(model, goal, x)
-    if aside is not None and BEYOND_THE_END not in aside.message:
+    """Why a settled hack whose target hangs farther than REACH_MM from its
+    request hangs there, where it hangs free from one support (no loops,
+    nothing standing, the support's connection not held rigid; the caller
+    leaves out hacks that lean on the environment, which may hold them
+    aside). What hangs free from a hook, ring or rod comes to rest with its
+    centre of mass under it (under a rod: in the vertical plane through its
+    axis; along it, where the hook is placed), so: the request farther to the
+    side than the target, by more than REACH_MM, W506 alone (`_beside_the_support`,
+    which says where under the support to ask instead); or along a rod, where
+    the hook cannot be placed (beyond the rod's end, `_beyond_its_end`, or up
+    a rod too steep for friction to hold it, `_slid_down_it`), W506 and W511
+    (`hangs_below`): each says one fix."""
+    hanging = _hanging(model, goal, x)
+    if hanging is None or np.linalg.norm(hanging.requested - hanging.reached) <= REACH_MM:
+        return ()
+    aside = _beside_the_support(model, hanging)
+    if aside is not None:
         return (aside,)
-    return tuple(d for d in (aside, hangs_below(model, goal, x)) if d is not None)
+    along = _beyond_its_end(model, hanging) or _slid_down_it(model, hanging, x)
+    return tuple(d for d in (along, hangs_below(model, goal, x)) if d is not None)
 
 
-def _beside_the_support(
-    model: Model, side: Side, joint: Joint, anchor: Array, along: Array, requested: Array, reached: Array
-) -> Diagnostic | None:
+def _beside_the_support(model: Model, hanging: _Hanging) -> Diagnostic | None:
     """W506 where the request lies farther across the support than the target."""
+    along = hanging.along
 
     def aside(point: Array) -> Array:
         """Horizontal offset from the support, across it."""
-        offset = (point - anchor)[:2]
+        offset = (point - hanging.anchor)[:2]
         return offset - (offset @ along) * along
 
+    requested, reached = hanging.requested, hanging.reached
     wanted, got = (float(np.linalg.norm(aside(point))) for point in (requested, reached))
     if wanted - got <= REACH_MM:
         return None
     under = requested[:2] - aside(requested) + aside(reached)  # the request, moved across under it
-    place = ", ".join(str(round(float(value))) for value in (*under, requested[2]))  # never "-0"
     return warning(
         "W506",
         f"the target hangs beside its request: the request is {wanted:.0f} mm to the side of "
-        f"`{joint.endpoint(side)}`, which the hack hangs from, and what hangs free from it comes "
-        f"to rest with its weight under it (here the target hangs {got:.0f} mm to its side)",
+        f"`{hanging.joint.endpoint(hanging.side)}`, which the hack hangs from, and what hangs free from "
+        f"it comes to rest with its weight under it (here the target hangs {got:.0f} mm to its side)",
         model.program.targets[0].span,
-        f"ask for a place under the support, such as ({place}) at the requested height, or hang the "
-        "target from a support above the request",
+        f"ask for a place under the support, such as ({_place(under, requested[2])}) at the requested "
+        "height, or hang the target from a support above the request",
     )
 
 
-BEYOND_THE_END = "beyond the end of"
+def _place(horizontal: Array, height: float) -> str:
+    return ", ".join(str(round(float(value))) for value in (*horizontal, height))  # never "-0"
 
 
-def _beyond_its_end(
-    model: Model, side: Side, joint: Joint, frames: Array, along: Array, requested: Array, reached: Array
-) -> Diagnostic | None:
+def _along_the_rod(hanging: _Hanging) -> tuple[Array, float, float] | None:
+    """For a hack hung from a rod that is not steep: the rod's frame, and the
+    request's and the target's horizontal places along it from its middle
+    (mm); None where the support is a point, or they lie within REACH_MM of
+    each other along it."""
+    if not hanging.along.any():
+        return None
+    rod = hanging.frames[hanging.side.part] @ hanging.side.primitive.base_frame()  # centred on its middle
+    wanted, got = (
+        float((point - rod[:3, 3])[:2] @ hanging.along) for point in (hanging.requested, hanging.reached)
+    )
+    return None if abs(wanted - got) <= REACH_MM else (rod, wanted, got)
+
+
+def _beyond_its_end(model: Model, hanging: _Hanging) -> Diagnostic | None:
     """W506 where the request lies beyond an end of the rod the hack hangs
     from, farther than the target: the hook is placed along the rod, but only
     as far as its ends (a roll on a hanger from a closet rod's end asked for 90
     mm past it was told only that it hung 28 mm low)."""
-    if not along.any():
+    found = _along_the_rod(hanging)
+    if found is None:
         return None
-    rod = frames[side.part] @ side.primitive.base_frame()  # centred on the rod's middle
-    half = float(side.primitive.params["length"]) / 2.0 * float(np.linalg.norm(rod[:2, 2]))
-    wanted, got = ((point - rod[:3, 3])[:2] @ along for point in (requested, reached))
+    rod, wanted, got = found
+    half = float(hanging.side.primitive.params["length"]) / 2.0 * float(np.linalg.norm(rod[:2, 2]))
     beyond = abs(wanted) - half
-    if beyond <= REACH_MM or abs(wanted - got) <= REACH_MM or np.sign(wanted) * (wanted - got) <= 0.0:
+    if beyond <= REACH_MM or np.sign(wanted) * (wanted - got) <= 0.0:
         return None
-    within = requested[:2] - np.sign(wanted) * beyond * along  # the request, moved back to the end
-    place = ", ".join(str(round(float(value))) for value in (*within, requested[2]))
+    within = hanging.requested[:2] - np.sign(wanted) * beyond * hanging.along  # moved back to the end
     return warning(
         "W506",
-        f"the target hangs beside its request: the request lies {beyond:.0f} mm {BEYOND_THE_END} "
-        f"`{joint.endpoint(side)}`, which the hack hangs from; what hangs from it is placed along it "
-        f"only as far as its ends (here the target hangs {abs(wanted - got):.0f} mm short of the request "
-        "along it)",
+        f"the target hangs beside its request: the request lies {beyond:.0f} mm beyond the end of "
+        f"`{hanging.joint.endpoint(hanging.side)}`, which the hack hangs from; what hangs from it is "
+        f"placed along it only as far as its ends (here the target hangs {abs(wanted - got):.0f} mm short "
+        "of the request along it)",
         model.program.targets[0].span,
-        f"ask for a place within its length, such as ({place}), or hang the hack from a support that "
-        "reaches over the request",
+        f"ask for a place within its length, such as ({_place(within, hanging.requested[2])}), or hang the "
+        "hack from a support that reaches over the request",
     )
+
+
+def _slid_down_it(model: Model, hanging: _Hanging, x: Array) -> Diagnostic | None:
+    """W506 where the hook slid to the low end of a rod that slopes more than
+    friction holds (atan FRICTION, 16.7 degrees) and the request lies up the
+    rod from the target: no place the builder chooses along it stays (a mug
+    on an S-hook from a closed rod sloping 20 degrees, asked for at its
+    middle, hung 154 mm off, told only that it hung 38 mm low)."""
+    found = _along_the_rod(hanging)
+    if found is None:
+        return None
+    rod, wanted, got = found
+    slope = math.degrees(math.asin(min(1.0, abs(float(rod[2, 2])))))
+    holds = math.degrees(math.atan(FRICTION))
+    slide = hanging.side.dof_indices[0]  # a rod's place along it, t from 0 to 1
+    at_an_end = min(x[slide], 1.0 - x[slide]) <= SLID_TO_AN_END
+    if slope <= holds or not at_an_end:
+        return None
+    return warning(
+        "W506",
+        f"the target hangs beside its request: the request lies {abs(wanted - got):.0f} mm along "
+        f"`{hanging.joint.endpoint(hanging.side)}` from where the target hangs, and the rod slopes "
+        f"{slope:.0f} degrees, more than friction holds a hook on it ({holds:.0f}): "
+        "what hangs from it slides to its low end",
+        model.program.targets[0].span,
+        "level the rod (or slope it less), tape the connection where you want it (`fixed`), or ask for a "
+        "place under the rod's low end",
+    )
+
+
+# t within this of 0 or 1: a slide that has gone as far as it goes
+SLID_TO_AN_END = 1e-6
 
 
 def hangs_below(model: Model, goal: target_mod.TargetGoal, x: Array) -> Diagnostic | None:
     """W511 for a settled hack whose target hangs more than REACH_MM below its
     request, the request lying under the one hook, ring or rod the hack hangs
-    from (as `hangs_aside` asks): what hangs free from one support hangs
+    from (as `hangs_away` asks): what hangs free from one support hangs
     straight down from it, so the parts between reach as far below it as
     their lengths make, and step 1, which folds them up with gravity off,
     cannot say so (W505 is for a request too far, not too near)."""
@@ -394,4 +453,4 @@ def _hanging_from(model: Model, goal: target_mod.TargetGoal) -> tuple[Side, Join
     return side, joint
 
 
-__all__ = ["REACH_DEG", "REACH_MM", "diagnose", "hangs_aside", "hangs_away", "hangs_below", "out_of_reach"]
+__all__ = ["REACH_DEG", "REACH_MM", "diagnose", "hangs_away", "hangs_below", "out_of_reach"]

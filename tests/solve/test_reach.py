@@ -221,6 +221,41 @@ def test_a_request_beyond_the_end_of_the_rod_is_said_so_with_how_far_below(tmp_p
     assert aside_warnings(tmp_path, HUNG_FROM_A_ROD.format(y=0)) == []
 
 
+SLOPING_ROD = """\
+environment rod = Rod(length: 400, radius: 5, slide_off: false) at (0, 0, 1500) rot (0, {tilt}, 0)
+s = DoubleHook()
+mug = Mug()
+connect s.hook1 -- rod
+connect mug.hook -- s.hook2
+target mug at (0, 0, 1350)
+"""
+
+
+def test_a_request_up_a_rod_too_steep_for_friction_is_said_so(tmp_path: Path) -> None:
+    """A mug on an S-hook from a 400 mm rod closed at both ends, sloping 20
+    degrees (rot (0, 70, 0) tips its axis 20 degrees off level), asked for
+    under its middle. Friction holds a hook on a slope up to atan 0.3 = 16.70
+    degrees, so the hook slides to the low end: 200 mm along the rod from its
+    middle, 200 cos 20 = 187.9 mm across the floor, and the mug hangs with its
+    centre of mass under it, its frame within 44.4 mm of that (the mesh's
+    centre of mass in its frame): 143-232 mm short of the request along the
+    rod. W506 says so, with the slope and friction's limit, and W511 how far
+    below. Sloping 15 degrees, friction holds the hook where the aim puts it
+    (under the request): no W506."""
+    path = tmp_path / "slope.fhl"
+    path.write_text(SLOPING_ROD.format(tilt=70))
+    result = api.solve(path)
+    assert result.status == "solved"
+    (slid,) = [d for d in result.diagnostics if d.code == "W506"]
+    along = float(re.search(r"the request lies (\d+) mm along `rod` from where", slid.message).group(1))
+    assert 143.0 <= along <= 232.0
+    assert "the rod slopes 20 degrees, more than friction holds a hook on it (17)" in slid.message
+    assert "`fixed`" in slid.help
+    assert "W511" in {d.code for d in result.diagnostics}
+    path.write_text(SLOPING_ROD.format(tilt=75))
+    assert "W506" not in {d.code for d in api.solve(path).diagnostics}
+
+
 FEEDER_ON_TWO_HOOKS = """\
 environment ceiling = CeilingHook() at (0, 0, 2000)
 a = DoubleHook()
