@@ -237,7 +237,7 @@ def hangs_away(model: Model, goal: target_mod.TargetGoal, x: Array) -> tuple[Dia
     which says where under the support to ask instead); or along a rod, where
     the hook cannot be placed (beyond the rod's end, `_beyond_its_end`, or up
     a rod too steep for friction to hold it, `_slid_down_it`), W506 and W511
-    (`hangs_below`): each says one fix."""
+    (`_hangs_below`): each says one fix."""
     hanging = _hanging(model, goal, x)
     if hanging is None or np.linalg.norm(hanging.requested - hanging.reached) <= REACH_MM:
         return ()
@@ -245,7 +245,7 @@ def hangs_away(model: Model, goal: target_mod.TargetGoal, x: Array) -> tuple[Dia
     if aside is not None:
         return (aside,)
     along = _beyond_its_end(model, hanging) or _slid_down_it(model, hanging, x)
-    return tuple(d for d in (along, hangs_below(model, goal, x)) if d is not None)
+    return tuple(d for d in (along, _hangs_below(model, goal, x, hanging)) if d is not None)
 
 
 def _beside_the_support(model: Model, hanging: _Hanging) -> Diagnostic | None:
@@ -349,20 +349,15 @@ def _slid_down_it(model: Model, hanging: _Hanging, x: Array) -> Diagnostic | Non
 SLID_TO_AN_END = 1e-6
 
 
-def hangs_below(model: Model, goal: target_mod.TargetGoal, x: Array) -> Diagnostic | None:
+def _hangs_below(model: Model, goal: target_mod.TargetGoal, x: Array, hanging: _Hanging) -> Diagnostic | None:
     """W511 for a settled hack whose target hangs more than REACH_MM below its
     request, the request lying under the one hook, ring or rod the hack hangs
-    from (as `hangs_away` asks): what hangs free from one support hangs
-    straight down from it, so the parts between reach as far below it as
-    their lengths make, and step 1, which folds them up with gravity off,
-    cannot say so (W505 is for a request too far, not too near)."""
-    found = _hanging_from(model, goal)
-    if found is None:
-        return None
-    side, joint = found
-    frames = model.part_frames(x)
-    anchor = model.connector_frame(side, x, frames)[2, 3]
-    requested, reached = goal.requested[2, 3], target_mod.achieved(goal, frames)[2, 3]
+    from (`hanging`): what hangs free from one support hangs straight down
+    from it, so the parts between reach as far below it as their lengths
+    make, and step 1, which folds them up with gravity off, cannot say so
+    (W505 is for a request too far, not too near)."""
+    side, joint = hanging.side, hanging.joint
+    anchor, requested, reached = hanging.anchor[2], hanging.requested[2], hanging.reached[2]
     drop = requested - reached
     if drop <= REACH_MM or requested >= anchor:
         return None
@@ -373,7 +368,7 @@ def hangs_below(model: Model, goal: target_mod.TargetGoal, x: Array) -> Diagnost
         f"it where the request is {anchor - requested:.0f} mm below",
         model.program.targets[0].span,
         f"shorten what hangs between them by about {drop:.0f} mm "
-        f"({_fewer_hint(model, goal, x, frames, drop)}), or ask for the target lower",
+        f"({_fewer_hint(model, goal, x, hanging.frames, drop)}), or ask for the target lower",
     )
 
 
@@ -453,4 +448,4 @@ def _hanging_from(model: Model, goal: target_mod.TargetGoal) -> tuple[Side, Join
     return side, joint
 
 
-__all__ = ["REACH_DEG", "REACH_MM", "diagnose", "hangs_away", "hangs_below", "out_of_reach"]
+__all__ = ["REACH_DEG", "REACH_MM", "diagnose", "hangs_away", "out_of_reach"]
