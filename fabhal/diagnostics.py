@@ -7,7 +7,7 @@ tools. Every code is documented in docs/errors.md.
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Mapping
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from enum import Enum
 
@@ -56,6 +56,20 @@ def listed(names: Iterable[str]) -> str:
     """Names as a message lists them: `a`, `b` and `c`."""
     quoted = [f"`{name}`" for name in names]
     return quoted[0] if len(quoted) == 1 else ", ".join(quoted[:-1]) + " and " + quoted[-1]
+
+
+def written_settings_hint(lines: Sequence[int]) -> str:
+    """What a help adds where a loop that does not close holds settings the
+    program writes (`set (...)` on these lines): those may be what keeps it
+    open (a setting copied from a result whose hooks turned, N508, where the
+    loop closes only with them turned); empty where it holds none."""
+    if not lines:
+        return ""
+    where = f"line {lines[0]}" if len(lines) == 1 else "lines " + ", ".join(map(str, lines))
+    return (
+        f"; or leave out the `set (...)` on {where}: a written setting holds a part where it is, and "
+        "the loop may close only with it elsewhere"
+    )
 
 
 class FabhalError(Exception):

@@ -16,6 +16,7 @@ constraint: world(a connector) @ A == world(b connector).
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import dataclass, replace
 from functools import cached_property
 
@@ -482,6 +483,11 @@ class Model:
             joints = [e for _, e in climb_a] + [e for _, e in reversed(climb_b)] + [j]
             loops.append(Loop(j, tuple(parts), tuple(joints)))
         return tuple(loops)
+
+    def lines_setting(self, joints: Iterable[int]) -> tuple[int, ...]:
+        """The lines of these joints' connections that write settings (`set (...)`)."""
+        connections = [self.joints[j].connection for j in joints]
+        return tuple(sorted({connection.span.line for connection in connections if connection.settings}))
 
     def on_loops(self) -> frozenset[Connection]:
         """The connections that lie on a loop (`loops`)."""

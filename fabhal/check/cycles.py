@@ -19,7 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from fabhal.check.context import CheckContext
-from fabhal.diagnostics import Diagnostic, error, note, warning
+from fabhal.diagnostics import Diagnostic, error, note, warning, written_settings_hint
 from fabhal.kinematics.frames import Array, frame_matrix
 from fabhal.model import ENVIRONMENT, Joint, Loop, Model, Side
 from fabhal.optimize import least_squares_objective, minimize
@@ -288,7 +288,7 @@ def check(ctx: CheckContext) -> tuple[list[Diagnostic], LoopReport | None]:
                 f"the best of {MAX_STARTS} tries, continued {POLISH_FACTOR} times longer, leaves a gap of "
                 f"{report.worst_position_mm:.1f} mm and "
                 f"{report.worst_angle_deg:.1f} degrees; try `flip` on a connection of the loop, "
-                "or parts of other lengths",
+                f"or parts of other lengths{written_settings_hint(model.lines_setting(loop.joints))}",
             )
         )
     return problems, report

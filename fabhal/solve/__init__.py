@@ -16,7 +16,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from fabhal.check.cycles import close_loops
-from fabhal.diagnostics import Diagnostic, Severity, error, listed, warning
+from fabhal.diagnostics import Diagnostic, Severity, error, listed, warning, written_settings_hint
 from fabhal.elaborate import Connection
 from fabhal.kinematics.contact import rectangles_overlap
 from fabhal.kinematics.frames import Array
@@ -867,7 +867,8 @@ def _crowded(step1: Problem, v: Array, closed: Array) -> Diagnostic | None:
         f"{rule.gap + apart[k]:.0f} mm apart along `{shared}`, closer than they fit ({rule.gap:.0f} mm)",
         second.connection.span,
         "two parts on one rod, tube, edge or hook cannot share a place: connect one of them elsewhere, "
-        "or give the loop another part so it closes with them apart",
+        "or give the loop another part so it closes with them apart"
+        + written_settings_hint(model.lines_setting(j for loop in model.loops for j in loop.joints)),
     )
 
 

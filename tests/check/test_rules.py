@@ -86,6 +86,39 @@ def test_places_read_as_metres_only_where_all_lie_near_the_origin(tmp_path: Path
         assert [d.code for d in api.check(program).diagnostics if d.code == "W425"] == said, text
 
 
+STICK_ON_SET_HOOKS = """\
+environment rod = Rod(length: 1000, radius: 5) at (0, 0, 1500) rot (90, 0, 90)
+s1 = DoubleHookMedium()
+s2 = DoubleHookMedium()
+stick = FlagRod()
+connect s1.hook1 -- rod set (rod.rod.t: 0.1)
+connect s2.hook1 -- rod set (rod.rod.t: 0.9)
+connect stick.rod -- s1.hook2
+connect stick.rod -- s2.hook2
+target stick.rod at (0, 0, 1420) rot (0, 90, 0)
+"""
+
+
+def test_a_loop_held_open_by_written_settings_says_which_lines(tmp_path: Path) -> None:
+    """Two S-hooks written 0.1 and 0.9 along a 1000 mm rod hang 800 mm apart;
+    a 280 mm flag stick laid in both cannot reach (each S-hook spans some 60
+    mm): E421, and its help names the two lines whose `set` holds them there
+    (a user who copied N506's settings from a result whose hooks turned,
+    N508, was refused with no word of them). Without the settings the loop
+    closes (the hooks slide together)."""
+    program = tmp_path / "stick.fhl"
+    program.write_text(STICK_ON_SET_HOOKS)
+    (refused,) = [d for d in api.check(program).diagnostics if d.code == "E421"]
+    assert refused.help.endswith(
+        "or leave out the `set (...)` on lines 5, 6: a written setting holds a part "
+        "where it is, and the loop may close only with it elsewhere"
+    )
+    program.write_text(
+        STICK_ON_SET_HOOKS.replace(" set (rod.rod.t: 0.1)", "").replace(" set (rod.rod.t: 0.9)", "")
+    )
+    assert api.check(program).ok
+
+
 def test_loops_close_to_a_micron_when_the_check_passes() -> None:
     result = api.check(REPO / "programs" / "bird_feeder.fhl")
     assert result.report is not None and result.report.loops is not None
