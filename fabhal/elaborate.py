@@ -611,7 +611,8 @@ class _Elaborator:
                 span,
                 "move the declaration above its first use",
             )
-        known = [*scope.parts, *scope.aliases, *scope.assemblies]
+        # a name whose declaration failed is still the user's: `mugg` near `mug = Mugg()`
+        known = [*scope.parts, *scope.aliases, *scope.assemblies, *sorted(scope.broken)]
         help_text = suggestion(
             key,
             known,

@@ -127,6 +127,9 @@ MISTAKES = {
     "primitive_of_alias": "s1 = DoubleHook()\ntop = s1.hook1\ns2 = DoubleHook()\n"
     "connect s2.hook2 -- top.hook1\n",
     "several_name_errors": "s1 = DoubleHook()\nconnect s1.hook9 -- s2.hook1\nm = Mugg()\n",
+    # a name misspelt where its declaration failed: still suggested (was "declared so far: s")
+    "misspelt_broken_name": "s = DoubleHook()\nmug = Mugg()\nconnect mug.hook -- s.hook2\n"
+    "target mugg at (0, 0, 1800)\n",
     "both_alignments": "s1 = DoubleHook()\ns2 = DoubleHook()\nconnect s2.hook2 -- s1.hook1 flip noflip\n",
     # each wrong `set (...)`: another connection's side, a DoF the hook lacks, a value
     # outside the hook's arc (0 .. 270 degrees), one DoF twice; a setting of a free
