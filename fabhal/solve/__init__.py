@@ -87,6 +87,7 @@ from fabhal.solve.steps import (
     Fit,
     Problem,
     closure_residual_mm,
+    end_of,
     feasible,
     fit_target,
     mm_per_unit,
@@ -129,7 +130,6 @@ NUDGE_MM = 5.0  # the nudge off an unstable balance, along its way down (degrees
 # assembly settles again without it
 TARGET_PULL = 1e-4
 POLISH_ROUNDS = 2  # settles again from the result while it is not yet at rest
-BOUND_TOLERANCE = 1e-6  # a DoF within this fraction of its range from an end rests on that end
 # KKT residual: the unbalanced generalised force per mm of motion, as a fraction of
 # the assembly's total weight; 1e-3 = 0.1 % of the weight left unbalanced
 EQUILIBRIUM_TOLERANCE = 1e-3
@@ -1821,7 +1821,7 @@ def _at_a_closed_end(problem: Problem, x: Array, side: Side) -> bool:
     dof = model.variables[slide].dof
     if dof.name != "t":
         return False
-    end = _end_of(*model.bounds(), slide, x)
+    end = end_of(*model.bounds(), slide, x)
     return (end == "min" and not dof.low_open) or (end == "max" and not dof.high_open)
 
 
@@ -1829,19 +1829,8 @@ def _resting_ends(problem: Problem, x: Array) -> dict[int, str]:
     """The problem's free DoFs (by position in `free`) resting on an end of
     their range: "min" or "max"."""
     low, high = problem.model.bounds()
-    ends = {k: _end_of(low, high, int(i), x) for k, i in enumerate(problem.free)}
+    ends = {k: end_of(low, high, int(i), x) for k, i in enumerate(problem.free)}
     return {k: end for k, end in ends.items() if end is not None}
-
-
-def _end_of(low: Array, high: Array, i: int, x: Array) -> str | None:
-    """The end of its range DoF i rests on at x ("min", "max"), within
-    BOUND_TOLERANCE of the range; None inside it."""
-    span = high[i] - low[i] if np.isfinite(high[i] - low[i]) else 1.0
-    if np.isfinite(low[i]) and x[i] - low[i] <= BOUND_TOLERANCE * span:
-        return "min"
-    if np.isfinite(high[i]) and high[i] - x[i] <= BOUND_TOLERANCE * span:
-        return "max"
-    return None
 
 
 def _weight(masses: Array) -> float:

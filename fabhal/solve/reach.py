@@ -23,7 +23,7 @@ from fabhal.diagnostics import Diagnostic, warning
 from fabhal.kinematics.frames import Array
 from fabhal.model import Joint, Model, Side
 from fabhal.solve import target as target_mod
-from fabhal.solve.steps import FRICTION, Problem, fit_target
+from fabhal.solve.steps import FRICTION, Problem, end_of, fit_target
 
 # a builder places and aims a hack by eye to about a centimetre and ten degrees;
 # a fit this close is reported as reached (the table's error says how close)
@@ -330,8 +330,7 @@ def _slid_down_it(model: Model, hanging: _Hanging, x: Array) -> Diagnostic | Non
     slope = math.degrees(math.asin(min(1.0, abs(float(rod[2, 2])))))
     holds = math.degrees(math.atan(FRICTION))
     slide = hanging.side.dof_indices[0]  # a rod's place along it, t from 0 to 1
-    at_an_end = min(x[slide], 1.0 - x[slide]) <= SLID_TO_AN_END
-    if slope <= holds or not at_an_end:
+    if slope <= holds or end_of(*model.bounds(), slide, x) is None:
         return None
     return warning(
         "W506",
@@ -343,10 +342,6 @@ def _slid_down_it(model: Model, hanging: _Hanging, x: Array) -> Diagnostic | Non
         "level the rod (or slope it less), tape the connection where you want it (`fixed`), or ask for a "
         "place under the rod's low end",
     )
-
-
-# t within this of 0 or 1: a slide that has gone as far as it goes
-SLID_TO_AN_END = 1e-6
 
 
 def _hangs_below(model: Model, goal: target_mod.TargetGoal, x: Array, hanging: _Hanging) -> Diagnostic | None:

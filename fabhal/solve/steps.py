@@ -63,6 +63,7 @@ FIT_STALL_STEPS = 15  # see residual_stalled
 # no DoF moves its connection more than this in one step (mm; degrees count as mm):
 # longer steps from a nearly singular model took up to 18 halvings each
 MAX_STEP_MM = 50.0
+BOUND_TOLERANCE = 1e-6  # a DoF within this fraction of its range from an end rests on that end
 SETTLE_ITERATIONS = 400  # of one settle; each iteration is one to a few energy evaluations
 # a settle ends when its last SETTLE_STALL_STEPS steps lowered the energy less than the
 # force left at rest does over SETTLE_STALL_MM (at 1e-4 of the weight: the whole
@@ -588,6 +589,17 @@ def feasible(problem: Problem, v: Array) -> bool:
     if closure_residual_mm(problem.model, problem.full(v)) > 1e-4:
         return False
     return not problem.has_limits() or bool(problem.limit_values(v).min() > -1e-6)
+
+
+def end_of(low: Array, high: Array, i: int, x: Array) -> str | None:
+    """The end of its range DoF i rests on at x ("min", "max"), within
+    BOUND_TOLERANCE of the range; None inside it."""
+    span = high[i] - low[i] if np.isfinite(high[i] - low[i]) else 1.0
+    if np.isfinite(low[i]) and x[i] - low[i] <= BOUND_TOLERANCE * span:
+        return "min"
+    if np.isfinite(high[i]) and high[i] - x[i] <= BOUND_TOLERANCE * span:
+        return "max"
+    return None
 
 
 def unbalanced_force(gradient: Array, constraint: Array, fitted: Array | None = None) -> Array:
