@@ -19,6 +19,7 @@ from fabhal.diagnostics import Severity
 from fabhal.load import load_program
 from fabhal.solve import contacts
 from tests.conftest import REPO, written_in_reverse
+from tests.perturbation import rounding_decides
 
 PROGRAMS = sorted(p.stem for p in (REPO / "programs").glob("*.fhl"))
 
@@ -268,6 +269,9 @@ def test_demo_ring_hangs_below_the_rod() -> None:
     assert position(result, "ring")[2] < position(result, "s")[2] < position(result, "rod")[2]
 
 
+@rounding_decides(
+    "under SkylakeX the caddy settles in its other rest, 42.3 mm and 11.8 degrees off (10 allowed)"
+)
 def test_diaper_caddy_hangs_between_its_two_hook_chains() -> None:
     """Between its chains, well below them, and turned within 10 degrees of its
     request (itself tilted 18 degrees): its handles rest on the seat backs

@@ -22,6 +22,7 @@ from fabhal.solve.contacts import Contact, Looked, Pairs, _distances, _kinds, co
 from fabhal.solve.forces import weight_newtons
 from fabhal.solve.steps import fit_target, taken_apart
 from tests.conftest import REPO
+from tests.perturbation import rounding_decides
 from tests.test_gallery import solved as gallery_solved
 
 
@@ -255,6 +256,10 @@ target a at (0, 0, 200)
 """
 
 
+@rounding_decides(
+    "under SkylakeX the rings hang 18.2 and 20.1 degrees either side of the hook's bottom "
+    "(1.9 apart; 1 allowed)"
+)
 def test_two_rings_on_one_hook_hang_side_by_side(tmp_path: Path) -> None:
     """Two toss rings on one S-hook's lower hook both want its lowest point
     (theta 180 on its arc); their wires (3.3 mm thick) keep them c_a + c_b =

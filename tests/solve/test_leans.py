@@ -14,6 +14,7 @@ from fabhal import api
 from fabhal.solve import Solution
 from fabhal.solve.aim import setting_text
 from tests.conftest import REPO, written_in_reverse
+from tests.perturbation import rounding_decides
 from tests.solve.test_physics import solve_text
 
 
@@ -32,6 +33,10 @@ def no_flip_program(tmp_path: Path, written: str = "noflip", first: str = "") ->
     return path
 
 
+@rounding_decides(
+    "under SkylakeX 46.0 mm and 8.9 degrees off, the tilt off its jam: where step 1 left the "
+    "eye hooks on the rod, which friction then holds"
+)
 def test_a_basket_on_a_wrongly_turned_eye_hook_hangs_askew_on_its_jams(tmp_path: Path) -> None:
     """The basket on the wrongly turned eye hook (its ring on the door rod the
     default way round), both eye hooks pinned the way they are written
@@ -250,6 +255,9 @@ def test_a_grip_held_up_a_hooks_side_is_not_at_rest(tmp_path: Path) -> None:
     assert swivel.moment == pytest.approx(weight * 0.3 * 153.0, abs=0.5)
 
 
+@rounding_decides(
+    "under SkylakeX and Sandybridge another start holds with the hook square (no N508), 20 mm off"
+)
 def test_a_grip_in_a_loop_turns_in_the_hook_and_rests_in_its_bottom(tmp_path: Path) -> None:
     """A basket on its loose wire handle (the handle and basket a loop: the
     basket's two rings on the handle's two stubs), hung by the grip from a
@@ -294,6 +302,9 @@ target stick.rod at (0, 0, 1440) rot (90, 0, 0)
 """
 
 
+@rounding_decides(
+    "under SkylakeX the turned hook's ring rests at 124.0 degrees round (120 +- 3; 122.5 under Haswell)"
+)
 def test_a_stick_lies_in_a_turned_hook_turned_on_its_wire(tmp_path: Path) -> None:
     """The hooks' rings' inside bottoms lie under their screws (a turn about
     the vertical does not move them): 1500 - 61.5 - 22.5 = 1416.0 at y =
@@ -313,7 +324,10 @@ def test_a_stick_lies_in_a_turned_hook_turned_on_its_wire(tmp_path: Path) -> Non
     result = solve_text(tmp_path, STICK_IN_A_TURNED_HOOK)
     assert result.status == "solved", [d.message for d in result.diagnostics]
     (note,) = [d for d in result.diagnostics if d.code == "N508"]
-    assert note.span is not None and note.span.line == 5 and "turned 30 degrees" in note.message
+    assert note.span is not None and note.span.line == 5
+    # the message rounds the turn to a degree: 30 within the turn's own tolerance (below)
+    told = re.search(r"turned (\d+) degrees", note.message)
+    assert told is not None and abs(int(told.group(1)) - 30) <= 1, note.message
     solution = result.solution
     stick = solution.frames[solution.model.part_index("stick")]
     axis, middle = stick[:3, 2], (stick @ np.array([0.0, 0.0, 140.0, 1.0]))[:3]
@@ -324,7 +338,8 @@ def test_a_stick_lies_in_a_turned_hook_turned_on_its_wire(tmp_path: Path) -> Non
     turned = names.index("c2.hook.phi")
     assert abs(solution.x[turned] - 90.0) == pytest.approx(30.0, abs=1.0)
     said = setting_text(solution.model, turned, float(solution.x[turned]), 1.0)  # as --dofs says it
-    assert re.fullmatch(r"turned [+-]30 degrees on c2\.hook about the line of its contact", said), said
+    said_turn = re.fullmatch(r"turned [+-](\d+) degrees on c2\.hook about the line of its contact", said)
+    assert said_turn is not None and abs(int(said_turn.group(1)) - 30) <= 1, said  # as the turn, to 1 degree
     assert abs(solution.x[names.index("c1.hook.phi")] - 90.0) < 1.0
     assert solution.x[names.index("c1.hook.theta")] == pytest.approx(120.0, abs=0.5)
     assert solution.x[names.index("c2.hook.theta")] == pytest.approx(120.0, abs=3.0)
@@ -396,6 +411,7 @@ def broom_axis(solution: Solution) -> tuple[np.ndarray, np.ndarray]:
     return tube[:3, 3], tube[:3, 2]
 
 
+@rounding_decides("under Sandybridge the broom ends 48 mm through a ring, not at rest")
 def test_a_hook_turns_on_the_ring_it_hangs_from_where_a_loop_needs_it(tmp_path: Path) -> None:
     """A broom handle (10 mm in radius) hung under a shower curtain rod by two
     chains of a curtain ring and a flat medium S-hook. Held square, each ring
