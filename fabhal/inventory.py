@@ -14,23 +14,19 @@ not listed. Environments (the rod, the wall) are the place and the target
 from __future__ import annotations
 
 import re
-import sys
 from collections import Counter
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from types import MappingProxyType
 
+import tomllib
+
 from fabhal.diagnostics import Diagnostic, FabhalError, error
 from fabhal.elaborate import FlatProgram
 from fabhal.library import Library
 from fabhal.source import SourceFile, Span
 from fabhal.syntax.hints import did_you_mean
-
-if sys.version_info >= (3, 11):
-    import tomllib
-else:  # pragma: no cover - Python 3.10 (pyproject installs tomli there)
-    import tomli as tomllib
 
 _AT = re.compile(r"\(at line (\d+), column (\d+)\)")
 
