@@ -111,11 +111,15 @@ def spread(rows: list[dict[str, Any]], path: Path) -> tuple[float, float, bool]:
     targets = [np.array(r["target"]) for r in rows if r["target"] is not None]
     if len(targets) < 2:
         return 0.0, 0.0, same and len(targets) == len(rows)
-    reference = api.solve(path)
+    from fabhal.solve.target import goal_of
+
+    model = api.check(path).model
+    assert model is not None  # the program solved, so it checked
+    goal = goal_of(model)
     worst_mm = worst_deg = 0.0
     for i, first in enumerate(targets):
         for second in targets[i + 1 :]:
-            mm, deg = apart(reference, first, second)
+            mm, deg = apart(goal, first, second)
             worst_mm, worst_deg = max(worst_mm, mm), max(worst_deg, deg)
     return worst_mm, worst_deg, same
 

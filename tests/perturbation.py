@@ -90,10 +90,10 @@ def fingerprint(result: Any) -> Fingerprint:
     return Fingerprint(result.status, codes, contacts, solution.target_frame())
 
 
-def apart(result: Any, first: Any, second: Any) -> tuple[float, float]:
+def apart(goal: Any, first: Any, second: Any) -> tuple[float, float]:
     """How far two target frames are from each other (mm, degrees), measured as
-    the solver measures the target's error (its primitive's symmetry included)."""
+    the solver measures the target's error (`goal`: the solution's, whose
+    primitive's symmetry counts)."""
     from fabhal.solve import target as target_mod
 
-    goal = result.solution.goal
     return target_mod.errors(replace(goal, requested=second), first)

@@ -96,5 +96,5 @@ def test_an_answer_survives_rounding(program: str) -> None:
             expected.contacts,
         ), f"twin {twin}"
         if expected.target is not None:
-            mm, deg = apart(written, found.target, expected.target)
+            mm, deg = apart(written.solution.goal, found.target, expected.target)
             assert mm <= APART_MM and deg <= APART_DEG, f"twin {twin}: {mm:.3f} mm, {deg:.3f} degrees apart"
