@@ -49,6 +49,18 @@ def all_fhl_files() -> list[Path]:
     return sorted(p for root in roots for p in root.rglob("*.fhl"))
 
 
+def gallery_programs(expected_to_fail: dict[str, str], strict: bool) -> list[Any]:
+    """The gallery's program names as parameters, those in `expected_to_fail`
+    marked xfail with their reason (`strict`: one that passes fails the run)."""
+    names = sorted(p.stem for p in (REPO / "programs").glob("*.fhl"))
+    return [
+        pytest.param(name, marks=pytest.mark.xfail(reason=expected_to_fail[name], strict=strict))
+        if name in expected_to_fail
+        else name
+        for name in names
+    ]
+
+
 def written_in_reverse(text: str, declarations: bool = False) -> str:
     """A program's text with its connections (and, with `declarations`, its part
     declarations) written in reverse order, each kind in its own lines' places."""

@@ -18,7 +18,7 @@ from fabhal import api
 from fabhal.diagnostics import Severity
 from fabhal.load import load_program
 from fabhal.solve import contacts
-from tests.conftest import REPO, written_in_reverse
+from tests.conftest import REPO, gallery_programs, written_in_reverse
 from tests.perturbation import rounding_decides
 
 PROGRAMS = sorted(p.stem for p in (REPO / "programs").glob("*.fhl"))
@@ -59,15 +59,7 @@ NOT_YET_AT_REST: dict[str, str] = {
 }
 
 
-@pytest.mark.parametrize(
-    "program",
-    [
-        pytest.param(p, marks=pytest.mark.xfail(reason=NOT_YET_AT_REST[p], strict=True))
-        if p in NOT_YET_AT_REST
-        else p
-        for p in PROGRAMS
-    ],
-)
+@pytest.mark.parametrize("program", gallery_programs(NOT_YET_AT_REST, strict=True))
 def test_program_checks_cleanly_and_solves(program: str) -> None:
     result = solved(program)
     problems = [d for d in result.check.diagnostics if d.severity in (Severity.ERROR, Severity.WARNING)]

@@ -26,10 +26,9 @@ import pytest
 
 from fabhal import api
 from fabhal.load import load_program
-from tests.conftest import REPO
+from tests.conftest import REPO, gallery_programs
 from tests.perturbation import apart, fingerprint, perturbed
 
-PROGRAMS = sorted(p.stem for p in (REPO / "programs").glob("*.fhl"))
 TWINS = (1, 2)  # fixed perturbations: each seed decides every number's direction
 APART_MM, APART_DEG = 0.5, 0.5
 
@@ -75,15 +74,7 @@ def test_a_twin_differs_only_in_the_ninth_digit() -> None:
     assert perturbed(text, 1) == perturbed(text, 1) != perturbed(text, 2)
 
 
-@pytest.mark.parametrize(
-    "program",
-    [
-        pytest.param(name, marks=pytest.mark.xfail(reason=NOT_YET_ROBUST[name], strict=False))
-        if name in NOT_YET_ROBUST
-        else name
-        for name in PROGRAMS
-    ],
-)
+@pytest.mark.parametrize("program", gallery_programs(NOT_YET_ROBUST, strict=False))
 def test_an_answer_survives_rounding(program: str) -> None:
     written = solved(program, 0)
     expected = fingerprint(written)
