@@ -31,11 +31,12 @@ HERE = Path(__file__).resolve().parent
 ROOT = HERE.parent
 sys.path.insert(0, str(ROOT))  # run from a checkout without installing
 
+from tests.perturbation import APART_DEG, APART_MM  # noqa: E402
+
 GALLERY = ROOT / "programs"
-# OpenBLAS's x86-64 kernels from old to new, and Arm's; a CPU runs those its
-# instructions allow (OpenBLAS falls back to another where they do not)
+# OpenBLAS's x86-64 kernels from old to new; a CPU runs those its instructions
+# allow (OpenBLAS falls back to another where they do not)
 CANDIDATES = ("Nehalem", "Sandybridge", "Haswell", "Zen", "SkylakeX", "Cooperlake", "SapphireRapids")
-APART_MM, APART_DEG = 0.5, 0.5  # issue 51's spread
 
 
 def write(line: str) -> None:
@@ -105,14 +106,13 @@ def spread(rows: list[dict[str, Any]], path: Path) -> tuple[float, float, bool]:
     import numpy as np
 
     from fabhal import api
+    from fabhal.solve.target import goal_of
     from tests.perturbation import apart
 
     same = len({(r["status"], tuple(r["codes"]), json.dumps(r["contacts"])) for r in rows}) == 1
     targets = [np.array(r["target"]) for r in rows if r["target"] is not None]
     if len(targets) < 2:
         return 0.0, 0.0, same and len(targets) == len(rows)
-    from fabhal.solve.target import goal_of
-
     model = api.check(path).model
     assert model is not None  # the program solved, so it checked
     goal = goal_of(model)

@@ -24,8 +24,10 @@ from fabhal.syntax.parser import parser_kit
 
 # a number in the text that a perturbation may move: not on a `param` line (its
 # default must stay one of its values) and not a count (`n: 3`, `0 .. 4`)
-_PARAM_LINE = re.compile(r"^\s*param\b")
+_PARAM_LINE = re.compile(r"[ \t]*param\b")
 SIGNIFICANT = 9  # the digit changed: a change of one unit in the 9th significant digit
+# how far apart a twin's target may hang from the program's own (issue 51's bar)
+APART_MM, APART_DEG = 0.5, 0.5
 
 
 def perturbed(text: str, seed: int) -> str:
@@ -33,13 +35,9 @@ def perturbed(text: str, seed: int) -> str:
     digit, up or down as `seed` decides (a zero becomes +-1e-9); integers that
     count (a part's `n`, a range's ends) and `param` lines are left as written."""
     chooser = random.Random(seed)
-    lines = text.splitlines(keepends=True)
-    starts = [0]
-    for line in lines:
-        starts.append(starts[-1] + len(line))
     pieces, last = [], 0
     for token in parser_kit().lark.lex(text):
-        if token.type != "NUMBER" or not _movable(text, token.start_pos, token.end_pos, lines, starts):
+        if token.type != "NUMBER" or not _movable(text, token.start_pos, token.end_pos):
             continue
         value = float(token.value)
         sign = chooser.choice((-1.0, 1.0))
@@ -49,9 +47,8 @@ def perturbed(text: str, seed: int) -> str:
     return "".join(pieces) + text[last:]
 
 
-def _movable(text: str, start: int, end: int, lines: list[str], starts: list[int]) -> bool:
-    row = max(i for i, s in enumerate(starts[:-1]) if s <= start)
-    if _PARAM_LINE.match(lines[row]):
+def _movable(text: str, start: int, end: int) -> bool:
+    if _PARAM_LINE.match(text, text.rfind("\n", 0, start) + 1):  # the number's line
         return False
     before = text[max(0, start - 8) : start].rstrip()
     after = text[end : end + 4].lstrip()

@@ -27,11 +27,10 @@ import pytest
 from fabhal import api
 from fabhal.load import load_program
 from tests.conftest import REPO, gallery_programs
-from tests.perturbation import apart, fingerprint, perturbed
+from tests.perturbation import APART_DEG, APART_MM, apart, fingerprint, perturbed
 from tests.test_gallery import solved as solved_as_written
 
 TWINS = (1, 2)  # fixed perturbations: each seed decides every number's direction
-APART_MM, APART_DEG = 0.5, 0.5
 
 # measured with bench/kernels.py --perturb 2 (bench/README.md item 99): what moves
 _AIMED = "the aim's two rounds end where they end, from a step 1 its budget stopped"
