@@ -31,8 +31,6 @@ HERE = Path(__file__).resolve().parent
 ROOT = HERE.parent
 sys.path.insert(0, str(ROOT))  # run from a checkout without installing
 
-from tests.perturbation import APART_DEG, APART_MM  # noqa: E402
-
 GALLERY = ROOT / "programs"
 # OpenBLAS's x86-64 kernels from old to new; a CPU runs those its instructions
 # allow (OpenBLAS falls back to another where they do not)
@@ -130,6 +128,8 @@ def main() -> int:
     parser.add_argument("--perturb", type=int, default=0, metavar="K", help="also K perturbed twins of each")
     parser.add_argument("--worker", action="store_true", help=argparse.SUPPRESS)
     args = parser.parse_args()
+    from tests.perturbation import APART_DEG, APART_MM  # not at import: the kernel probes need numpy only
+
     programs = [p.resolve() for p in args.programs] or sorted(GALLERY.glob("*.fhl"))
     if args.worker:  # one kernel's process: JSON rows on stdout
         sys.stdout.write(json.dumps(solve_all(programs, args.perturb)) + "\n")

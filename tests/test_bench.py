@@ -13,6 +13,7 @@ import pytest
 from fabhal import api, bench
 from tests.cli.test_check_command import fabhal
 from tests.conftest import REPO
+from tests.perturbation import APART_DEG, APART_MM
 
 
 @pytest.fixture
@@ -128,4 +129,4 @@ def test_the_kernel_bench_names_the_kernels_and_compares_twins() -> None:
     rows = kernels.solve_all([path], perturbations=1)
     assert [row["twin"] for row in rows] == [0, 1] and all(row["status"] == "solved" for row in rows)
     apart_mm, apart_deg, same = kernels.spread(rows, path)
-    assert same and apart_mm <= kernels.APART_MM and apart_deg <= kernels.APART_DEG
+    assert same and apart_mm <= APART_MM and apart_deg <= APART_DEG
