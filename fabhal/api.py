@@ -39,7 +39,7 @@ class CheckResult:
 
 
 def check(
-    path: Path | LoadedProgram, bindings: Mapping[str, str] | None = None, seed: int = 0
+    path: str | Path | LoadedProgram, bindings: Mapping[str, str] | None = None, seed: int = 0
 ) -> CheckResult:
     """Everything before solving: read, parse, resolve imports, check the part
     definitions, elaborate the program (bind `param`s, unroll loops, resolve
@@ -51,8 +51,8 @@ def check(
     return _checked(_loaded(path), bindings, seed, float("inf"))
 
 
-def _loaded(path: Path | LoadedProgram) -> LoadedProgram:
-    return path if isinstance(path, LoadedProgram) else load_program(path)
+def _loaded(path: str | Path | LoadedProgram) -> LoadedProgram:
+    return path if isinstance(path, LoadedProgram) else load_program(Path(path))
 
 
 def part_library() -> CheckResult:
@@ -80,7 +80,7 @@ class SolveResult:
 
 
 def solve(
-    path: Path | LoadedProgram,
+    path: str | Path | LoadedProgram,
     bindings: Mapping[str, str] | None = None,
     seed: int = 0,
     time_limit: float | None = None,

@@ -355,3 +355,12 @@ def test_plain_hooks_turn_on_hooks_only_on_a_loop(tmp_path: Path) -> None:
     }
     assert variants["flag.rod|c1.hook"] == ("Rod", "HookFlex")
     assert variants["mug.hook|s.hook1"] == ("Hook", "HookFlex")  # the S-hook's own flex; the handle square
+
+
+def test_a_program_is_named_by_text_as_well_as_by_a_path() -> None:
+    """`api.check("programs/demo.fhl")`, as a newcomer writes it in Python,
+    reads the same program as a Path does (it raised AttributeError)."""
+    by_text = api.check(str(REPO / "programs" / "demo.fhl"))
+    by_path = api.check(REPO / "programs" / "demo.fhl")
+    assert by_text.ok and by_text.flat is not None and by_path.flat is not None
+    assert [p.name for p in by_text.flat.parts] == [p.name for p in by_path.flat.parts]

@@ -17,8 +17,10 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from fabhal import api
+from fabhal.diagnostics import Severity
 from fabhal.meshes import mass_properties
 from fabhal.solve import Topple
+from fabhal.solve.steps import FRICTION
 from tests.conftest import REPO
 from tests.solve.test_physics import solve_text, tilt_of
 
@@ -583,3 +585,35 @@ def test_feet_that_hardly_press_say_so_rather_than_a_ratio(tmp_path: Path) -> No
     assert "they hardly press on the floor at all" in far.message and "times" not in far.message
     near = fall_diagnostic(model, Slip(0, "stool", SLIP_RATIO_SHOWN * 0.99, 89.0))
     assert "99.00 times as hard" in near.message
+
+
+ONE_HOOK_BASKET = """\
+# a soap bottle standing in a handle basket hung by one S-hook from a shower rod
+environment shower = ShowerCurtainRod() at (0, 0, 0)
+hook = DoubleHookMedium()
+basket = HandleBasket()
+soap = SoapBottle()
+connect hook.hook1 -- shower.rod
+connect basket.rod -- hook.hook2
+connect soap.surface -- basket.surface
+target soap.rod at (200, 127, 1800) rot (0, 0, 0)
+"""
+
+
+@pytest.mark.xfail(
+    strict=True,
+    reason="issue 52: comes back `solved` with the hook at the handle's end, the basket tilted 52 degrees "
+    "and the bottle standing on its tilted floor at three times the friction angle",
+)
+def test_a_bottle_in_a_basket_hung_askew_by_one_hook_is_not_solved(tmp_path: Path) -> None:
+    """A user's hack (issue 52): the aim slides the hook to the very end of the
+    basket's handle to bring the bottle nearer its request, and the basket
+    hangs there tilted; a bottle cannot stand on a floor tilted beyond its
+    friction angle, so whatever the solver finds, `solved` with the bottle
+    standing tilted is not an answer, and an error must say what is wrong."""
+    result = solve_text(tmp_path, ONE_HOOK_BASKET)
+    soap_tilt = tilt_of(result.solution, "soap")
+    if result.status == "solved":  # then the bottle stands within its friction angle
+        assert soap_tilt < np.degrees(np.arctan(FRICTION)), soap_tilt
+    else:
+        assert any(d.severity is Severity.ERROR and d.span is not None for d in result.diagnostics)
