@@ -340,8 +340,12 @@ def tips_off_its_feet(model: Model, x: Array, wrenches: Wrenches, weight: float)
         normal = model.connector_frame(floor, x, frames)[:3, 2]
         pressing = float(sign * wrenches.forces[j] @ normal)
         force_left, moment_left = wrenches.unbalanced[foot.part]
-        beyond = moment_left / max(newtons - force_left, 1e-12)
-        if pressing < -TOPPLE_MARGIN_MM / MOMENT_ARM_MM * newtons:
+        carried = newtons - force_left  # what the feet's pushes balance
+        margin = TOPPLE_MARGIN_MM / MOMENT_ARM_MM * newtons
+        # M / F is a distance only where the feet carry a share of the weight: carrying none of it
+        # (they would have to pull), the weight acts outside them however far
+        beyond = moment_left / carried if carried > margin else float("inf")
+        if pressing < -margin:
             beyond = float("inf")
         if beyond > TOPPLE_MARGIN_MM and foot.part not in found:
             found[foot.part] = Topple(

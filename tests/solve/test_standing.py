@@ -18,8 +18,10 @@ from scipy.spatial.transform import Rotation
 
 from fabhal import api
 from fabhal.diagnostics import Severity
+from fabhal.kinematics.statics import Wrenches
 from fabhal.meshes import mass_properties
 from fabhal.solve import Topple
+from fabhal.solve.falls import tips_off_its_feet
 from fabhal.solve.steps import FRICTION
 from tests.conftest import REPO
 from tests.solve.test_physics import solve_text, tilt_of
@@ -493,16 +495,7 @@ def test_a_clip_on_its_two_round_feet_falls_over(tmp_path: Path) -> None:
     unbalanced: its weight acts d beyond its feet. E507, falls_apart. Before,
     the feet were held outright and it stood. Tolerance 0.5 mm (the margin
     of the verdict)."""
-    result = solve_text(
-        tmp_path,
-        """\
-environment counter = Surface(width: 400, length: 400) at (0, 0, 0)
-clip = PlasticClip()
-connect clip.hemisphere1 -- counter
-connect clip.hemisphere2 -- counter
-target clip at (0, 0, 30)
-""",
-    )
+    result = solve_text(tmp_path, TWO_FEET_CLIP)
     assert result.status == "falls_apart"
     (feet, centre) = feet_and_weight_line(result, "clip")
     along = (feet[1] - feet[0])[:2] / np.linalg.norm((feet[1] - feet[0])[:2])
@@ -587,6 +580,14 @@ def test_feet_that_hardly_press_say_so_rather_than_a_ratio(tmp_path: Path) -> No
     assert "99.00 times as hard" in near.message
 
 
+TWO_FEET_CLIP = """\
+environment counter = Surface(width: 400, length: 400) at (0, 0, 0)
+clip = PlasticClip()
+connect clip.hemisphere1 -- counter
+connect clip.hemisphere2 -- counter
+target clip at (0, 0, 30)
+"""
+
 ONE_HOOK_BASKET = """\
 # a soap bottle standing in a handle basket hung by one S-hook from a shower rod
 environment shower = ShowerCurtainRod() at (0, 0, 0)
@@ -617,3 +618,26 @@ def test_a_bottle_in_a_basket_hung_askew_by_one_hook_is_not_solved(tmp_path: Pat
         assert soap_tilt < np.degrees(np.arctan(FRICTION)), soap_tilt
     else:
         assert any(d.severity is Severity.ERROR and d.span is not None for d in result.diagnostics)
+
+
+def test_feet_that_carry_none_of_the_weight_are_not_given_a_distance(tmp_path: Path) -> None:
+    """Issue 52: a clip on two feet was refused with "its weight acts
+    4343736678918396 mm beyond its feet": the moment left over divided by the
+    force the feet carry, where they carry none of it. The statics' answer for
+    the two-footed clip (tests above) with its feet's pushes taken away: the
+    verdict is that it falls, with no distance (there is none: nothing under
+    it pushes), worded as such."""
+    result = solve_text(tmp_path, TWO_FEET_CLIP)
+    solution = result.solution
+    model = solution.model
+    clip = model.part_index("clip")
+    newtons = 1000.0 * 0.05  # any weight: the feet carry none of it
+    joints = len(model.joints)
+    unbalanced = np.zeros((len(model.parts), 2))
+    unbalanced[clip] = (newtons, 120.0)  # the whole weight and a moment left over
+    nothing = Wrenches(
+        forces=np.zeros((joints, 3)), moments=np.zeros((joints, 3)), imbalance=newtons, unbalanced=unbalanced,
+        indeterminate=np.zeros((0, joints, 3)), reach=np.zeros(0), taken=np.zeros(0),
+    )  # fmt: skip
+    (fall,) = tips_off_its_feet(model, solution.x, nothing, newtons / 1000.0)
+    assert isinstance(fall, Topple) and fall.on_feet and fall.beyond_mm == float("inf")
