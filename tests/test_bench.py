@@ -130,3 +130,21 @@ def test_the_kernel_bench_names_the_kernels_and_compares_twins() -> None:
     assert [row["twin"] for row in rows] == [0, 1] and all(row["status"] == "solved" for row in rows)
     apart_mm, apart_deg, same = kernels.spread(rows, path)
     assert same and apart_mm <= APART_MM and apart_deg <= APART_DEG
+
+
+def test_the_clip_sweep_writes_each_member_and_keeps_the_nearest(capsys: pytest.CaptureFixture[str]) -> None:
+    """bench/clip_sweep.py on the small clip light with steps so coarse that it
+    has 2 places x 2 turns: each member is the program with the clip's two
+    settings written, and the best it reports is the member nearest the
+    request among those solved (checked against the members solved here)."""
+    sweep = _script("clip_sweep")
+    path = REPO / "programs" / "clip_light_s.fhl"
+    text = path.read_text()
+    members = [sweep._member((path, text, t, spin)) for t in (0.0, 200.0 / 385.0) for spin in (0.0, 180.0)]
+    solved = [m for m in members if m[2] == "solved"]
+    assert solved, members
+    nearest = min(solved, key=lambda m: m[3] + m[4])
+    sweep.sweep("clip_light_s", along_mm=200.0, turn_deg=180.0, jobs=1)
+    out = capsys.readouterr().out
+    assert "4 members (2 places 200 mm apart x turns 180 deg apart)" in out
+    assert f"{nearest[3]:.2f} mm, {nearest[4]:.2f} deg; aimed minus best" in out
