@@ -22,6 +22,7 @@ import argparse
 import os
 import sys
 import time
+from collections import Counter
 from concurrent.futures import ProcessPoolExecutor
 from contextlib import nullcontext
 from pathlib import Path
@@ -52,8 +53,10 @@ def _solve(path: Path, text: str) -> tuple[str, float, float]:
 
 def _member(job: tuple[Path, str, float, float]) -> tuple[float, float, str, float, float]:
     path, text, t, spin = job
-    written = text.replace(CLIP_LINE, f"{CLIP_LINE} set (hanger.rod.t: {t:.6f}, hanger.rod.spin: {spin:g})")
-    return (t, spin, *_solve(path, written))
+    setting = f" set (hanger.rod.t: {t:.6f}, hanger.rod.spin: {spin:g})"
+    # at the line's end, after any `flip` or `fixed` (the grammar's order)
+    lines = [line + setting if line.startswith(CLIP_LINE) else line for line in text.splitlines()]
+    return (t, spin, *_solve(path, "\n".join(lines) + "\n"))
 
 
 def _bar_length(path: Path) -> float:
@@ -85,21 +88,24 @@ def sweep(name: str, along_mm: float, turn_deg: float, jobs: int) -> None:
     places = f"{steps_along + 1} places {along_mm:g} mm apart"
     write(f"{name}: {len(members)} members ({places} x turns {turn_deg:g} deg apart)")
     best: tuple[float, float, float, float] | None = None
+    statuses: Counter[str] = Counter()
     with ProcessPoolExecutor(jobs) if jobs > 1 else nullcontext() as pool:
         solved = pool.map(_member, members, chunksize=8) if pool else map(_member, members)
         for k, (t, spin, s, p, r) in enumerate(solved, 1):
+            statuses[s] += 1
             if s == "solved" and (best is None or p + r < best[2] + best[3]):
                 best = (t, spin, p, r)
             if k % max(1, len(members) // 10) == 0:
                 write(f"  {k}/{len(members)} ({time.perf_counter() - start:.0f} s)")
+    write(f"{name}: " + ", ".join(f"{count} {status}" for status, count in sorted(statuses.items())))
     if best is None:
         write(f"{name}: no member solved at rest")
         return
     t, spin, p, r = best
     write(
         f"{name}: best by hand at {t * length:.0f} mm along the bar, turned {spin:g} deg: "
-        f"{p:.2f} mm, {r:.2f} deg; aimed minus best {position - p:+.2f} mm, {rotation - r:+.2f} deg "
-        f"({time.perf_counter() - start:.0f} s)"
+        f"{p:.2f} mm, {r:.2f} deg; aimed minus best {position - p:+.2f} mm, {rotation - r:+.2f} deg, "
+        f"by solve's measure {position + rotation - p - r:+.2f} ({time.perf_counter() - start:.0f} s)"
     )
 
 

@@ -14,9 +14,9 @@ part pressed into another would show.
 
 Programs the solver does not yet keep apart are listed with what was measured
 (strict: one that comes out clear fails, so that the list stays true). The
-whole gallery takes about 15 minutes on 2 cores (a broom lying in a towel
+whole gallery takes about 9 minutes on 2 cores (a broom lying in a towel
 roll's bore, under a millimetre from it along 280 mm, is read at some 10^5
-points), so it runs with `pytest -m meshes`; the normal suite measures the
+points), so it runs with `pytest -m acceptance`; the normal suite measures the
 gallery's first example.
 """
 
@@ -48,7 +48,7 @@ def _assert_clear(program: str) -> None:
     assert too_deep == [], [f"{o.inside} {o.depth_mm:.2f} mm into {o.of}" for o in too_deep]
 
 
-@pytest.mark.meshes
+@pytest.mark.acceptance
 @pytest.mark.parametrize(
     "program",
     [p for p in gallery_programs(NOT_YET_CLEAR, strict=True) if "family" not in str(p)],
