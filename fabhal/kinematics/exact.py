@@ -10,9 +10,13 @@ from that closest point along the angle-weighted pseudonormal of the face,
 edge or vertex it lies on (Baerentzen and Aanaes, 2005: exact for a closed
 manifold). A mesh stitched of closed pieces that share no edges (a scan's
 shells, a soup of triangles tiling one surface) is no manifold: there a point
-is inside where the mesh's winding number about it is one (the sum of the
-triangles' signed solid angles over 4 pi, van Oosterom and Strackee's
-formula), which costs a pass over every triangle for each point.
+is inside where the nearest face's normal says so, and, where the nearest
+point lies on an edge or a corner (whose neighbours a soup does not know),
+where the mesh's winding number about it is one (the sum of the triangles'
+signed solid angles over 4 pi, van Oosterom and Strackee's formula: a pass
+over every triangle for each such point).
+
+`deepest_inside` reads how deep one surface reaches into such a body.
 """
 
 from __future__ import annotations
@@ -27,7 +31,7 @@ from numpy.typing import NDArray
 Array = NDArray[np.float64]
 
 CHUNK_PAIRS = 1_000_000  # point-triangle pairs per numpy pass: some 300 MB of temporaries
-NEAREST_CENTRES = 4  # triangles nearest by their centres that bound a point's distance
+NEAREST_CENTRES = 4  # pieces nearest by their centres that bound a point's distance
 SMALLEST_SPHERE_MM = 0.25  # pieces are grouped by size from this up, doubling
 SEARCH_SPHERE_MM = 8.0  # triangles are cut into pieces no larger for the search
 POINTS_PER_PASS = 20_000  # points asked at once: bounds the memory of the neighbour queries
