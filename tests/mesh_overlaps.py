@@ -46,6 +46,7 @@ CLOSED_PROBES = 64  # points near a mesh where its winding number must come out 
 class Piece:
     mesh: TriangleMesh  # in the body's frame
     side: str  # "manifold" (pseudonormals), "closed" (winding number), "open" (a scan's walls)
+    box: tuple[np.ndarray, np.ndarray]  # its vertices' low and high corners
 
 
 @dataclass(frozen=True)
@@ -72,20 +73,26 @@ def _body(spec: Any) -> Body:
         mesh = part_mesh(spec)
         merged = trimesh.Trimesh(np.asarray(mesh.vertices, dtype=float), np.asarray(mesh.faces), process=True)
         pieces = merged.split(only_watertight=False)
-        closed = [_piece(p, "manifold") for p in pieces if p.is_watertight and p.is_winding_consistent]
+        closed = [
+            _piece(_ready(p), "manifold") for p in pieces if p.is_watertight and p.is_winding_consistent
+        ]
         rest = [piece for piece in pieces if not piece.is_watertight and piece.area >= SLIVER_MM2]
         if rest:  # a soup of triangles, or a scan's walls: measured as one
             soup = trimesh.util.concatenate(rest)
             if _signed_volume(soup) < 0.0:  # faces turned inwards: the winding number is -1 inside
                 soup.invert()
-            whole = _winds_whole(np.asarray(soup.vertices), np.asarray(soup.faces))
-            closed.append(_piece(soup, "closed" if whole else "open"))
+            ready = _ready(soup)
+            closed.append(_piece(ready, "closed" if _winds_whole(ready) else "open"))
         _BODIES[key] = Body(tuple(closed), np.asarray(merged.triangles, dtype=float))
     return _BODIES[key]
 
 
-def _piece(mesh: Any, side: str) -> Piece:
-    return Piece(triangle_mesh(np.asarray(mesh.vertices), np.asarray(mesh.faces)), side)
+def _ready(mesh: Any) -> TriangleMesh:
+    return triangle_mesh(np.asarray(mesh.vertices), np.asarray(mesh.faces))
+
+
+def _piece(mesh: TriangleMesh, side: str) -> Piece:
+    return Piece(mesh, side, (mesh.vertices.min(axis=0), mesh.vertices.max(axis=0)))
 
 
 def _signed_volume(mesh: Any) -> float:
@@ -96,13 +103,13 @@ def _signed_volume(mesh: Any) -> float:
     return float(volumes.sum() / 6.0)
 
 
-def _winds_whole(vertices: np.ndarray, faces: np.ndarray) -> bool:
+def _winds_whole(mesh: TriangleMesh) -> bool:
     """Whether the mesh winds a whole number of times round points near it: so
     for a closed surface however its pieces are stitched, not for a scan's walls."""
     rng = np.random.default_rng(7)
-    low, high = vertices.min(axis=0), vertices.max(axis=0)
+    low, high = mesh.vertices.min(axis=0), mesh.vertices.max(axis=0)
     probes = low + (high - low) * rng.random((CLOSED_PROBES, 3))
-    winding = winding_number(probes, triangle_mesh(vertices, faces))
+    winding = winding_number(probes, mesh)
     return bool(np.all(np.abs(winding - np.round(winding)) < 1e-3))
 
 
@@ -127,13 +134,9 @@ def _depth(triangles: np.ndarray, body: Body, frame: np.ndarray, bar: float) -> 
     one of them, not into their union)."""
     local = (triangles - frame[:3, 3]) @ frame[:3, :3]
     return max(
-        (
-            deepest_inside(local, _signed(piece), (piece.mesh.vertices.min(axis=0),
-                           piece.mesh.vertices.max(axis=0)), SPACING_MM, bar)
-            for piece in body.pieces
-        ),
+        (deepest_inside(local, _signed(piece), piece.box, SPACING_MM, bar) for piece in body.pieces),
         default=0.0,
-    )  # fmt: skip
+    )
 
 
 def overlaps(solution: Any, bar: float) -> list[Overlap]:

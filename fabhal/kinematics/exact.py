@@ -28,7 +28,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-Array = NDArray[np.float64]
+from fabhal.kinematics.frames import Array
 
 CHUNK_PAIRS = 1_000_000  # point-triangle pairs per numpy pass: some 300 MB of temporaries
 NEAREST_CENTRES = 4  # pieces nearest by their centres that bound a point's distance
@@ -66,8 +66,7 @@ def triangle_mesh(vertices: Array, faces: NDArray[np.int64]) -> TriangleMesh:
     vertices, faces = np.asarray(vertices, dtype=float), np.asarray(faces, dtype=np.int64)
     triangles = vertices[faces]
     pieces, parent = _bisected(triangles, SEARCH_SPHERE_MM)
-    centres = pieces.mean(axis=1)
-    spheres = np.linalg.norm(pieces - centres[:, None], axis=2).max(axis=1)
+    centres, spheres = _spheres(pieces)
     # pieces grouped by size, so that one large face does not widen every point's search
     size_class = np.floor(np.log2(np.maximum(spheres, SMALLEST_SPHERE_MM) / SMALLEST_SPHERE_MM)).astype(int)
     classes = []
@@ -92,6 +91,12 @@ def triangle_mesh(vertices: Array, faces: NDArray[np.int64]) -> TriangleMesh:
     )  # fmt: skip
 
 
+def _spheres(triangles: Array) -> tuple[Array, Array]:
+    """(m, 3) each triangle's centre and (m,) the radius about it that holds it."""
+    centres = triangles.mean(axis=1)
+    return centres, np.linalg.norm(triangles - centres[:, None], axis=2).max(axis=1)
+
+
 def _bisected(triangles: Array, largest: float) -> tuple[Array, NDArray[np.int64]]:
     """The triangles cut in halves until every piece's bounding sphere (about
     its centre) is at most `largest`, and each piece's triangle. The pieces are
@@ -99,8 +104,7 @@ def _bisected(triangles: Array, largest: float) -> tuple[Array, NDArray[np.int64
     done, done_parent = [], []
     todo, parent = triangles, np.arange(len(triangles))
     while len(todo):
-        centres = todo.mean(axis=1)
-        small = np.linalg.norm(todo - centres[:, None], axis=2).max(axis=1) <= largest
+        small = _spheres(todo)[1] <= largest
         done.append(todo[small])
         done_parent.append(parent[small])
         todo, parent = _halved(todo[~small]), np.concatenate([parent[~small], parent[~small]])
@@ -340,8 +344,7 @@ def deepest_inside(
     found (or than 0) are dropped; the rest are split: first by grouping the
     faces' centres on halving grids, then by cutting each face in halves, until
     the pieces' spheres are no larger than `spacing`."""
-    centres = triangles.mean(axis=1)
-    radii = np.linalg.norm(triangles - centres[:, None], axis=2).max(axis=1)
+    centres, radii = _spheres(triangles)
     low, high = box
     deepest = 0.0
     alive = np.flatnonzero(_sphere_meets_box(centres, radii, low, high))
@@ -373,8 +376,7 @@ def deepest_inside(
             return deepest
         split = (radii - distance > deepest) & (radii > spacing)
         triangles = _halved(triangles[split])
-        centres = triangles.mean(axis=1)
-        radii = np.linalg.norm(triangles - centres[:, None], axis=2).max(axis=1)
+        centres, radii = _spheres(triangles)
     return deepest
 
 
